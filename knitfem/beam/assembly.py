@@ -1,0 +1,144 @@
+"""All rods of a model on one scikit-fem ``MeshLine`` in arclength, 6 dofs per node.
+
+The mesh coordinate is the reference arclength (rods laid end to end with a
+gap, disconnected); positions and rotations are fields on it.  scikit-fem
+supplies the mesh, the P1 vector basis (dof numbering: node-wise interleaved,
+``(ux, uy, uz, rx, ry, rz)``), the one-point midpoint quadrature and its
+weights (the element lengths), line loads as a ``LinearForm``, and the sparse
+format (``COOData``).  Element residuals and tangents come from
+:mod:`knitfem.beam.element`; they are scattered into a CSR matrix whose
+sparsity pattern is computed once.
+"""
+import numpy as np
+from scipy import sparse
+from skfem import Basis, ElementLineP1, ElementVector, LinearForm, MeshLine1
+from skfem.assembly.form.coo_data import COOData
+
+from .element import element_forces, element_strains
+
+MIDPOINT_RULE = (np.array([[0.5]]), np.array([1.0]))   # reduced integration
+DOFS_PER_NODE = 6
+
+
+@LinearForm
+def line_load(v, w):
+    """Work of a force per unit length ``w.f`` (3, nel, nq) on the translations."""
+    return w.f[0] * v.value[0] + w.f[1] * v.value[1] + w.f[2] * v.value[2]
+
+
+class RodAssembly:
+    """Connectivity and element data of several disjoint rods.
+
+    Attributes: ``node_offset[k]`` first global node of rod k, ``elements``
+    (2, nel) node pairs, ``h`` (nel,) element lengths, ``gamma0``/``kappa0``/
+    ``CN``/``CM`` (nel, 3) per element, ``element_dofs`` (12, nel).
+    """
+
+    def __init__(self, rods):
+        if len(rods) == 0:
+            raise ValueError("a model needs at least one rod")
+        self.rods = list(rods)
+        sizes = [r.s.shape[0] for r in self.rods]
+        self.node_offset = np.concatenate([[0], np.cumsum(sizes)])
+        self.n_nodes = int(self.node_offset[-1])
+        self.n_dofs = DOFS_PER_NODE * self.n_nodes
+        coords, conn, shift = [], [], 0.0
+        for r, off in zip(self.rods, self.node_offset):
+            coords.append(r.s - r.s[0] + shift)
+            shift = coords[-1][-1] + 1.0
+            i = np.arange(r.n_elements) + off
+            conn.append(np.stack([i, i + 1]))
+        self.mesh = MeshLine1(np.concatenate(coords)[None, :], np.concatenate(conn, axis=1))
+        self.basis = Basis(self.mesh, ElementVector(ElementLineP1(), DOFS_PER_NODE),
+                           quadrature=MIDPOINT_RULE)
+        self.elements = self.mesh.t
+        self.element_dofs = self.basis.element_dofs
+        self.h = self.basis.dx[:, 0].copy()
+        self.gamma0 = np.concatenate([r.gamma0 for r in self.rods])
+        self.kappa0 = np.concatenate([r.kappa0 for r in self.rods])
+        self.CN = np.concatenate([np.tile(r.section.CN, (r.n_elements, 1)) for r in self.rods])
+        self.CM = np.concatenate([np.tile(r.section.CM, (r.n_elements, 1)) for r in self.rods])
+        self.rod_of_element = np.concatenate(
+            [np.full(r.n_elements, k) for k, r in enumerate(self.rods)])
+        self._patterns = {}
+
+    def initial_positions(self):
+        return np.concatenate([r.X for r in self.rods])
+
+    def initial_rotations(self):
+        return np.concatenate([r.Q for r in self.rods])
+
+    # -- element evaluation -------------------------------------------------------
+    def element_arrays(self, x, q):
+        a, b = self.elements
+        return x[a], x[b], q[a], q[b]
+
+    def force_noise(self, x):
+        """Estimated round-off of the assembled internal forces (a norm)."""
+        a, b = self.elements
+        size = 0.5 * (np.abs(x[a]).max(axis=1) + np.abs(x[b]).max(axis=1))
+        per_element = np.finfo(float).eps * self.CN.max(axis=1) * size / self.h
+        return float(np.sqrt(2.0 * np.sum(per_element**2)))
+
+    def strains(self, x, q):
+        """Gamma, K (nel, 3) and midpoint triads (nel, 3, 3) of a configuration."""
+        return element_strains(*self.element_arrays(x, q), self.h)
+
+    def forces(self, x, q, tangent=True, free=None):
+        """Internal energy, internal force vector (n_dofs,) and tangent (CSR).
+
+        x : (n_nodes, 3) positions; q : (n_nodes, 4) unit quaternions.
+        free : optional boolean mask (n_dofs,); the tangent is then returned
+        for the free dofs only (rows and columns), built without slicing.
+        """
+        energy, res, Ke = element_forces(*self.element_arrays(x, q), self.h, self.gamma0,
+                                         self.kappa0, self.CN, self.CM, tangent)
+        f = np.bincount(self.element_dofs.T.ravel(), weights=res.ravel(),
+                        minlength=self.n_dofs)
+        K = self.scatter(Ke, free) if tangent else None
+        return float(energy.sum()), f, K
+
+    # -- sparse assembly --------------------------------------------------------------
+    def coo(self, Ke):
+        """Element matrices (nel, 12, 12) as scikit-fem ``COOData`` (the reference path)."""
+        dofs = self.element_dofs.T
+        rows = np.broadcast_to(dofs[:, :, None], Ke.shape).ravel()
+        cols = np.broadcast_to(dofs[:, None, :], Ke.shape).ravel()
+        return COOData(np.stack([rows, cols]), Ke.ravel(), (self.n_dofs, self.n_dofs), None)
+
+    def _pattern(self, free):
+        """CSR structure and the slot of every element-matrix entry in it;
+        entries in a fixed row or column go to a spare slot that is dropped."""
+        key = None if free is None else np.asarray(free, bool).tobytes()
+        if key not in self._patterns:
+            if free is None:
+                index, n = np.arange(self.n_dofs), self.n_dofs
+            else:
+                index = np.cumsum(free) - 1
+                index[~np.asarray(free, bool)] = -1
+                n = int(np.count_nonzero(free))
+            dofs = index[self.element_dofs.T]
+            keep = ((dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)).ravel()
+            flat = (dofs[:, :, None].astype(np.int64) * n + dofs[:, None, :]).ravel()
+            unique, slot = np.unique(flat[keep], return_inverse=True)
+            slots = np.full(flat.shape[0], unique.shape[0])
+            slots[keep] = slot
+            indptr = np.searchsorted(unique // n, np.arange(n + 1))
+            self._patterns[key] = (slots, unique % n, indptr, n)
+        return self._patterns[key]
+
+    def scatter(self, Ke, free=None):
+        """CSR matrix of element matrices (nel, 12, 12), optionally restricted to
+        the ``free`` dofs; the sparsity pattern is computed once per mask."""
+        slots, indices, indptr, n = self._pattern(free)
+        data = np.bincount(slots, weights=Ke.ravel(), minlength=indices.shape[0] + 1)
+        return sparse.csr_matrix((data[:-1], indices, indptr), shape=(n, n))
+
+    def distributed_load(self, force_per_length):
+        """Consistent nodal forces (n_dofs,) of a force per unit length per rod.
+
+        force_per_length : (n_rods, 3); with one-point quadrature each node of an
+        element receives f h / 2, exact for loads uniform on the element.
+        """
+        f = np.asarray(force_per_length, dtype=float)[self.rod_of_element]   # (nel, 3)
+        return line_load.assemble(self.basis, f=f.T[:, :, None])

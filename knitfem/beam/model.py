@@ -1,0 +1,325 @@
+"""A beam model: rods, supports, loads, and its equations at a load factor.
+
+Scene set-up reads like the experiment::
+
+    model = BeamModel()
+    rod = model.add_rod(Rod.straight((0, 0, 0), (1, 0, 0), L, 16, section))
+    model.clamp(rod, "start")
+    model.moment(rod, "end", (0, 0, M))
+    steps = model.solve(loads=np.linspace(0.1, 1, 10))
+
+Degrees of freedom per node: ``ux uy uz`` (translation) and ``rx ry rz``
+(spatial rotation increments about the global axes; rotations are stored as
+quaternions and updated multiplicatively).  Loads and prescribed motions are
+scaled by the load factor ``lam``: nodal forces, moments (fixed global
+direction) and gravity by ``lam``, prescribed displacements and rotations by
+the path functions the user gives (linear in ``lam`` by default).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..solve.stepping import load_stepping
+from .assembly import DOFS_PER_NODE, RodAssembly
+from .rod import Rod
+from .rotation import quat_multiply, rotate_spatially, rotation_from_vector, rotation_matrix
+
+DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
+
+
+@dataclass
+class BeamState:
+    """Configuration: positions x (n_nodes, 3), unit quaternions q (n_nodes, 4)."""
+    x: np.ndarray
+    q: np.ndarray
+
+    def copy(self):
+        return BeamState(self.x.copy(), self.q.copy())
+
+    @property
+    def frames(self):
+        """Director frames (n_nodes, 3, 3); columns d1, d2, d3."""
+        return rotation_matrix(self.q)
+
+
+@dataclass
+class _Support:
+    kind: str
+    mask: np.ndarray            # (6,) bool, fixed dofs of the node
+    position: object            # lam -> (3,) target position (fixed components used)
+    orientation: object         # lam -> (4,) target quaternion, or None
+
+
+def _vector(name, value, size=3):
+    a = np.asarray(value, dtype=float).reshape(-1)
+    if a.shape != (size,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be {size} finite numbers, got {value!r}")
+    return a
+
+
+class BeamModel:
+    """Rods with supports and loads; see the module docstring."""
+
+    def __init__(self, rods=()):
+        self.rods = []
+        self._supports = {}       # global node -> _Support
+        self._nodal = []          # (node, (6,) load at lam = 1)
+        self._gravity = None
+        self._plane = None
+        self._assembly = None
+        for r in rods:
+            self.add_rod(r)
+
+    # -- building the scene ----------------------------------------------------------
+    def add_rod(self, rod):
+        """Add a :class:`Rod`; returns its index."""
+        if not isinstance(rod, Rod):
+            raise ValueError(f"add_rod expects a knitfem Rod, got {type(rod).__name__}")
+        if self._supports or self._nodal:
+            raise ValueError("add all rods before supports and loads (node numbering)")
+        self.rods.append(rod)
+        self._assembly = None
+        return len(self.rods) - 1
+
+    @property
+    def assembly(self):
+        if self._assembly is None:
+            self._assembly = RodAssembly(self.rods)
+        return self._assembly
+
+    def node(self, rod, at):
+        """Global node index of node ``at`` ('start', 'end' or an int) of rod ``rod``."""
+        if not isinstance(rod, (int, np.integer)) or not 0 <= rod < len(self.rods):
+            raise ValueError(f"rod must be an index in [0, {len(self.rods) - 1}], got {rod!r}")
+        n = self.rods[rod].s.shape[0]
+        if at == "start":
+            i = 0
+        elif at == "end":
+            i = n - 1
+        elif isinstance(at, (int, np.integer)) and -n <= at < n:
+            i = int(at) % n
+        else:
+            raise ValueError(f"at must be 'start', 'end' or a node index in [-{n}, {n - 1}], "
+                             f"got {at!r}")
+        return int(self.assembly.node_offset[rod] + i)
+
+    def _layout(self, node):
+        return self.assembly.initial_positions()[node], self.assembly.initial_rotations()[node]
+
+    def _support(self, rod, at, kind, mask, position, orientation):
+        node = self.node(rod, at)
+        old = self._supports.get(node)
+        if old is not None:
+            if old.kind == kind and kind in ("clamp", "pin", "fix") and \
+                    np.array_equal(old.mask | mask, old.mask) and orientation is None:
+                return node
+            clash = [DOF_NAMES[i] for i in np.flatnonzero(old.mask & mask)]
+            if clash or old.orientation is not None or orientation is not None:
+                raise ValueError(
+                    f"contradictory boundary conditions at rod {rod} node {at!r}: "
+                    f"'{kind}' on {clash or 'rotations'} meets an existing '{old.kind}'; "
+                    "each degree of freedom takes one support")
+            mask = old.mask | mask
+            pos_old, pos_new, m_old = old.position, position, old.mask[:3]
+            position = lambda lam: np.where(m_old, pos_old(lam), pos_new(lam))  # noqa: E731
+            kind = f"{old.kind}+{kind}"
+        self._supports[node] = _Support(kind, mask, position, orientation)
+        return node
+
+    def clamp(self, rod, at):
+        """Fix position and frame of a node where the layout puts them."""
+        X, Q = self._layout(self.node(rod, at))
+        return self._support(rod, at, "clamp", np.ones(6, bool), lambda lam: X,
+                             lambda lam: Q)
+
+    def pin(self, rod, at):
+        """Fix the position of a node; its frame turns freely."""
+        X, _ = self._layout(self.node(rod, at))
+        return self._support(rod, at, "pin", np.array([1, 1, 1, 0, 0, 0], bool),
+                             lambda lam: X, None)
+
+    def fix(self, rod, at, dofs):
+        """Fix selected dofs, e.g. ``"uz rx ry"``.  Fixed rotation components hold
+        the spatial rotation increment at zero (exact when the node turns about
+        one fixed axis, as in planar problems or a torqued clamped end)."""
+        names = dofs.split() if isinstance(dofs, str) else list(dofs)
+        bad = [d for d in names if d not in DOF_NAMES]
+        if bad or not names:
+            raise ValueError(f"dofs must be names from {DOF_NAMES}, got {dofs!r}")
+        mask = np.array([d in names for d in DOF_NAMES])
+        X, _ = self._layout(self.node(rod, at))
+        return self._support(rod, at, "fix", mask, lambda lam: X, None)
+
+    def prescribe(self, rod, at, *, displacement=None, rotation=None):
+        """Move a node with the load factor.
+
+        displacement : (3,) displacement at lam = 1 (applied as lam * value) or a
+            callable lam -> (3,); fixes ux, uy, uz.
+        rotation : (3,) rotation vector at lam = 1 (the node's frame becomes
+            exp(lam * value) applied to its layout frame) or a callable
+            lam -> (3,); fixes rx, ry, rz.
+        """
+        if displacement is None and rotation is None:
+            raise ValueError("prescribe needs displacement and/or rotation")
+        X, Q = self._layout(self.node(rod, at))
+        mask = np.zeros(6, bool)
+        position, orientation = (lambda lam: X), None
+        if displacement is not None:
+            disp = displacement if callable(displacement) else \
+                (lambda lam, d=_vector("displacement", displacement): lam * d)
+            position = lambda lam: X + _vector("displacement(lam)", disp(lam))  # noqa: E731
+            mask[:3] = True
+        if rotation is not None:
+            rot = rotation if callable(rotation) else \
+                (lambda lam, r=_vector("rotation", rotation): lam * r)
+            orientation = lambda lam: quat_multiply(  # noqa: E731
+                rotation_from_vector(_vector("rotation(lam)", rot(lam)))[0], Q)
+            mask[3:] = True
+        return self._support(rod, at, "prescribe", mask, position, orientation)
+
+    def force(self, rod, at, F):
+        """Dead nodal force (3,) at lam = 1."""
+        self._nodal.append((self.node(rod, at), np.r_[_vector("force", F), np.zeros(3)]))
+
+    def moment(self, rod, at, M):
+        """Nodal moment (3,) about fixed global axes at lam = 1."""
+        self._nodal.append((self.node(rod, at), np.r_[np.zeros(3), _vector("moment", M)]))
+
+    def gravity(self, g):
+        """Gravity acceleration (3,) acting on each rod's ``section.line_density``."""
+        self._gravity = _vector("gravity", g)
+
+    def restrict_to_plane(self):
+        """Solve in the x-y plane only (uz, rx, ry eliminated): exact when the
+        layout, its frames (one director along z) and all loads are planar."""
+        x, q = self.assembly.initial_positions(), self.assembly.initial_rotations()
+        if np.ptp(x[:, 2]) > 1e-12 * max(1.0, np.ptp(x)):
+            raise ValueError("restrict_to_plane: the layout is not in a plane z = const")
+        dz = np.abs(rotation_matrix(q)[:, 2, :])          # z-components of d1, d2, d3
+        if np.any(np.abs(dz.max(axis=1) - 1.0) > 1e-9):
+            raise ValueError("restrict_to_plane: every frame needs a director along z")
+        self._plane = np.array([0, 0, 1, 1, 1, 0], bool)
+
+    # -- the discrete equations ----------------------------------------------------------
+    @property
+    def fixed(self):
+        """Boolean mask (n_dofs,) of supported dofs."""
+        mask = np.zeros((self.assembly.n_nodes, DOFS_PER_NODE), bool)
+        for node, sup in self._supports.items():
+            mask[node] |= sup.mask
+        if self._plane is not None:
+            mask |= self._plane
+        return mask.ravel()
+
+    def external_forces(self):
+        """Load vector (n_dofs,) at lam = 1 (nodal loads and gravity)."""
+        asm = self.assembly
+        f = np.zeros((asm.n_nodes, DOFS_PER_NODE))
+        for node, load in self._nodal:
+            f[node] += load
+        f = f.ravel()
+        if self._gravity is not None:
+            rho = np.array([r.section.line_density for r in self.rods])
+            f = f + asm.distributed_load(rho[:, None] * self._gravity)
+        return f
+
+    def check(self):
+        """Raise ValueError for loads on supported dofs and unsupported rods."""
+        fixed = self.fixed.reshape(-1, DOFS_PER_NODE)
+        for node, load in self._nodal:
+            hit = [DOF_NAMES[i] for i in np.flatnonzero((load != 0) & fixed[node])]
+            if hit:
+                raise ValueError(f"contradictory boundary conditions: a load acts on "
+                                 f"supported dof(s) {hit} of node {node}; the support "
+                                 "would absorb it")
+        for k, off in enumerate(self.assembly.node_offset[:-1]):
+            end = self.assembly.node_offset[k + 1]
+            if not fixed[off:end].any():
+                raise ValueError(f"rod {k} has no support and would move as a rigid body; "
+                                 "clamp, pin or prescribe at least one node")
+
+    def initial_state(self):
+        return BeamState(self.assembly.initial_positions(), self.assembly.initial_rotations())
+
+    def apply_supports(self, state, lam):
+        """Copy of ``state`` with supported nodes moved to their values at ``lam``."""
+        s = state.copy()
+        for node, sup in self._supports.items():
+            target = np.asarray(sup.position(lam), dtype=float)
+            s.x[node, sup.mask[:3]] = target[sup.mask[:3]]
+            if sup.orientation is not None:
+                qn = np.asarray(sup.orientation(lam), dtype=float)
+                s.q[node] = qn if qn @ s.q[node] >= 0 else -qn
+        return s
+
+    def retract(self, state, du):
+        """State reached by increments du (n_dofs,): x + u, q <- exp(theta) q."""
+        du = du.reshape(-1, DOFS_PER_NODE)
+        return BeamState(state.x + du[:, :3], rotate_spatially(state.q, du[:, 3:]))
+
+    def internal_forces(self, state, tangent=True, free=None):
+        """Energy, internal forces (n_dofs,) and tangent (CSR; restricted to the
+        ``free`` dofs if that mask is given) of a state."""
+        return self.assembly.forces(state.x, state.q, tangent, free)
+
+    def reactions(self, state, lam):
+        """Support reactions (n_dofs,), zero on free dofs: f_int - lam f_ext."""
+        _, f, _ = self.internal_forces(state, tangent=False)
+        r = f - lam * self.external_forces()
+        return np.where(self.fixed, r, 0.0)
+
+    def length_scale(self):
+        """Characteristic length turning moments into forces in residual norms."""
+        return max(r.length for r in self.rods)
+
+    def static_problem(self, lam):
+        """Newton problem (see :mod:`knitfem.solve.newton`) at load factor lam."""
+        return StaticProblem(self, lam)
+
+    def solve(self, loads=(1.0,), state=None, **newton_options):
+        """Equilibria at the load factors ``loads`` (load stepping from ``state``,
+        default the layout).  Returns a list of :class:`knitfem.solve.Step`."""
+        self.check()
+        state = self.initial_state() if state is None else state
+        return load_stepping(self.static_problem, state, list(loads), **newton_options)
+
+
+class StaticProblem:
+    """The model's equilibrium at fixed lam, on the free dofs, for Newton.
+
+    Its norm divides moments by the model length scale so forces and moments
+    enter |r| in one unit; the relative residual is |r| over the size of the
+    internal forces including support reactions (or of the loads, if larger).
+    """
+
+    def __init__(self, model, lam):
+        self.model = model
+        self.lam = float(lam)
+        self.free = ~model.fixed
+        rotational = np.tile([False, False, False, True, True, True], model.assembly.n_nodes)
+        self.weight = np.where(rotational, 1.0 / model.length_scale(), 1.0)
+        self.f_ext = model.external_forces()
+
+    def start(self, state):
+        return self.model.apply_supports(state, self.lam)
+
+    def norm(self, r_free):
+        return float(np.linalg.norm(r_free * self.weight[self.free]))
+
+    def noise(self, state):
+        """Round-off level of |r|: chords x_B - x_A carry an absolute error of
+        ~eps |x|, which the axial/shear stiffness turns into a force error
+        C_N eps |x| / h per element (stiff rods hit this floor first)."""
+        return self.model.assembly.force_noise(state.x)
+
+    def evaluate(self, state, jacobian=True):
+        _, f, J = self.model.internal_forces(state, jacobian, self.free)
+        r = f - self.lam * self.f_ext
+        ref = max(np.linalg.norm(f * self.weight),
+                  np.linalg.norm(self.lam * self.f_ext * self.weight), 1e-300)
+        return r[self.free], J, ref
+
+    def retract(self, state, du_free):
+        du = np.zeros(self.free.shape[0])
+        du[self.free] = du_free
+        return self.model.retract(state, du)

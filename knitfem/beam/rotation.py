@@ -1,0 +1,146 @@
+"""Finite rotations as unit quaternions, vectorised over nodes or elements.
+
+Convention: a quaternion is ``(w, x, y, z)`` with the scalar first, arrays have
+shape ``(n, 4)``; rotation vectors and 3-vectors have shape ``(n, 3)``.  The
+rotation matrix ``R(q)`` maps material (body) components to spatial ones, so the
+columns of ``R`` are the directors ``d1, d2, d3`` (``d1`` is the rod tangent).
+
+Conversions (exponential, logarithm, matrices) are scipy's
+:class:`~scipy.spatial.transform.Rotation`; this module adds the quaternion
+product matrices that the beam kernel differentiates and the frame builders the
+rod geometry needs.  Quaternion signs are never canonicalised: a rod rotated by
+2π ends with ``-q``, which is the same rotation, and nothing here breaks there.
+"""
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+_EYE3 = np.eye(3)
+
+
+def hat(v):
+    """Skew matrix ``hat(v) @ a == cross(v, a)``; ``v`` (..., 3) -> (..., 3, 3)."""
+    v = np.asarray(v, dtype=float)
+    out = np.zeros(v.shape + (3,))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def quat_conjugate(q):
+    """Inverse of a unit quaternion, (..., 4)."""
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_left(q):
+    """Matrix of left multiplication, ``quat_left(p) @ q == p ⊗ q``; (..., 4, 4)."""
+    q = np.asarray(q, dtype=float)
+    out = np.empty(q.shape + (4,))
+    out[..., 0, 0] = q[..., 0]
+    out[..., 0, 1:] = -q[..., 1:]
+    out[..., 1:, 0] = q[..., 1:]
+    out[..., 1:, 1:] = q[..., 0, None, None] * _EYE3 + hat(q[..., 1:])
+    return out
+
+
+def quat_right(q):
+    """Matrix of right multiplication, ``quat_right(q) @ p == p ⊗ q``; (..., 4, 4)."""
+    q = np.asarray(q, dtype=float)
+    out = np.empty(q.shape + (4,))
+    out[..., 0, 0] = q[..., 0]
+    out[..., 0, 1:] = -q[..., 1:]
+    out[..., 1:, 0] = q[..., 1:]
+    out[..., 1:, 1:] = q[..., 0, None, None] * _EYE3 - hat(q[..., 1:])
+    return out
+
+
+def quat_multiply(p, q):
+    """Hamilton product ``p ⊗ q`` (rotation ``R(p) R(q)``), (n, 4)."""
+    return np.einsum("...ij,...j->...i", quat_left(p), q)
+
+
+def as_rotation(q):
+    """scipy ``Rotation`` of scalar-first quaternions (n, 4)."""
+    return Rotation.from_quat(q, scalar_first=True)
+
+
+def quat_from_rotation(r):
+    """Scalar-first quaternions (n, 4) of a scipy ``Rotation``, sign kept."""
+    return np.atleast_2d(r.as_quat(scalar_first=True))
+
+
+def rotation_matrix(q):
+    """Rotation matrices (n, 3, 3) of unit quaternions (n, 4)."""
+    return np.atleast_3d(as_rotation(q).as_matrix()).reshape(-1, 3, 3)
+
+
+def rotate_spatially(q, theta):
+    """Multiplicative update ``R <- exp(hat(theta)) R`` with spatial rotation
+    vectors ``theta`` (n, 3); returns the new quaternions (n, 4).
+
+    The result is renormalised so round-off cannot drift off the unit sphere
+    over many Newton steps.
+    """
+    qn = quat_from_rotation(Rotation.from_rotvec(theta) * as_rotation(q))
+    # scipy may flip the sign; keep the branch continuous with the old q
+    flip = np.einsum("ij,ij->i", qn, q) < 0.0
+    qn[flip] *= -1.0
+    return qn / np.linalg.norm(qn, axis=1, keepdims=True)
+
+
+def rotation_vector(q):
+    """Rotation vectors (n, 3), |theta| <= π, of quaternions (n, 4)."""
+    return np.atleast_2d(as_rotation(q).as_rotvec())
+
+
+def rotation_from_vector(theta):
+    """Quaternions (n, 4) of the rotations ``exp(hat(theta))``, theta (n, 3)."""
+    return quat_from_rotation(Rotation.from_rotvec(np.atleast_2d(theta)))
+
+
+def minimal_rotation(a, b):
+    """Quaternions (n, 4) of the smallest rotations taking unit vectors a to b.
+
+    Parallel transport of a frame along a polygon is a chain of these.
+    Antiparallel pairs turn about an axis perpendicular to ``a``.
+    """
+    a = np.atleast_2d(a)
+    b = np.atleast_2d(b)
+    q = np.empty((a.shape[0], 4))
+    q[:, 0] = 1.0 + np.einsum("ij,ij->i", a, b)
+    q[:, 1:] = np.cross(a, b)
+    bad = q[:, 0] < 1e-12
+    if np.any(bad):
+        helper = np.where(np.abs(a[bad, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+        axis = np.cross(a[bad], helper)
+        q[bad, 0] = 0.0
+        q[bad, 1:] = axis
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def director_frame(tangent, d3_hint):
+    """Quaternions (n, 4) of frames with ``d1 = tangent`` and ``d3`` the part of
+    ``d3_hint`` perpendicular to it, ``d2 = d3 x d1`` (inputs (n, 3), any length)."""
+    t = np.atleast_2d(np.asarray(tangent, dtype=float))
+    hint = np.broadcast_to(np.asarray(d3_hint, dtype=float), t.shape)
+    t = t / np.linalg.norm(t, axis=1, keepdims=True)
+    d3 = hint - np.einsum("ij,ij->i", hint, t)[:, None] * t
+    norm = np.linalg.norm(d3, axis=1)
+    if np.any(norm < 1e-9 * np.linalg.norm(hint, axis=1)) or np.any(norm == 0):
+        raise ValueError("d3_hint must not be parallel to the tangent "
+                         "(valid: any vector with a component across d1)")
+    d3 = d3 / norm[:, None]
+    frames = np.stack([t, np.cross(d3, t), d3], axis=2)
+    return quat_from_rotation(Rotation.from_matrix(frames))
+
+
+def transported_frames(tangents, first):
+    """Twist-free frames along a sequence of unit tangents (n, 3): the first
+    frame is the quaternion ``first`` (4,), each next one is the previous
+    turned by the minimal rotation between consecutive tangents."""
+    steps = minimal_rotation(tangents[:-1], tangents[1:])
+    q = np.empty((tangents.shape[0], 4))
+    q[0] = first
+    for i in range(1, q.shape[0]):
+        q[i] = quat_multiply(steps[i - 1], q[i - 1])
+    return q / np.linalg.norm(q, axis=1, keepdims=True)

@@ -1,0 +1,59 @@
+"""Incremental loading: Newton at a sequence of load factors, cutting steps on failure.
+
+Generic: ``problem_at(lam)`` returns a Newton problem (see
+:mod:`knitfem.solve.newton`) for the load factor ``lam``.
+"""
+from dataclasses import dataclass, field
+
+from .newton import NewtonError, newton
+
+
+class SteppingError(NewtonError):
+    """Load stepping failed.  ``steps`` holds the converged steps so far."""
+
+    def __init__(self, reason, message, state, history, steps):
+        super().__init__(reason, message, state, history)
+        self.steps = steps
+
+
+@dataclass
+class Step:
+    load: float
+    state: object
+    iterations: int                              # Newton iterations, all sub-steps
+    history: list = field(default_factory=list)  # relative residuals, last sub-step
+    substeps: int = 1
+
+
+def load_stepping(problem_at, x0, loads, *, max_halvings=8, **newton_options):
+    """Follow the equilibrium path through the load factors ``loads``, starting
+    from ``x0`` (equilibrium at the first load, or a guess for it).
+
+    A failed increment is halved up to ``max_halvings`` times.  Returns one
+    :class:`Step` per requested load; raises :class:`SteppingError` keeping the
+    steps done and the last converged state.
+    """
+    steps = []
+    x = x0
+    lam = loads[0] if len(loads) else 0.0
+    for target in loads:
+        dlam, iterations, halvings, substeps = target - lam, 0, 0, 0
+        while True:
+            trial = target if abs(target - lam) <= abs(dlam) else lam + dlam
+            try:
+                result = newton(problem_at(trial), x, where=f"load {trial:.6g}", **newton_options)
+            except NewtonError as err:
+                halvings += 1
+                if halvings > max_halvings:
+                    raise SteppingError(err.reason, f"{err}; the step from load {lam:.6g} "
+                                        f"failed after {max_halvings} halvings", x,
+                                        err.history, steps) from None
+                dlam *= 0.5
+                continue
+            x, lam = result.state, trial
+            iterations += result.iterations
+            substeps += 1
+            if lam == target:
+                break
+        steps.append(Step(target, x, iterations, result.history, substeps))
+    return steps

@@ -1,0 +1,1 @@
+"""Reference solutions and the verification scenes built on them."""
