@@ -23,7 +23,7 @@ DOFS_PER_NODE = 6
 @LinearForm
 def line_load(v, w):
     """Work of a force per unit length ``w.f`` (3, nel, nq) on the translations."""
-    return w.f[0] * v.value[0] + w.f[1] * v.value[1] + w.f[2] * v.value[2]
+    return w.f[0] * v[0] + w.f[1] * v[1] + w.f[2] * v[2]
 
 
 class RodAssembly:

@@ -22,7 +22,8 @@ import numpy as np
 from ..solve.stepping import load_stepping
 from .assembly import DOFS_PER_NODE, RodAssembly
 from .rod import Rod
-from .rotation import quat_multiply, rotate_spatially, rotation_from_vector, rotation_matrix
+from .rotation import (quat_conjugate, quat_multiply, rotate_spatially, rotation_from_vector,
+                       rotation_matrix, rotation_vector)
 
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
 
@@ -110,19 +111,22 @@ class BeamModel:
         node = self.node(rod, at)
         old = self._supports.get(node)
         if old is not None:
-            if old.kind == kind and kind in ("clamp", "pin", "fix") and \
-                    np.array_equal(old.mask | mask, old.mask) and orientation is None:
-                return node
+            if kind in ("clamp", "pin", "fix") and old.kind == kind and \
+                    np.array_equal(old.mask, mask):
+                return node                      # the same support twice
             clash = [DOF_NAMES[i] for i in np.flatnonzero(old.mask & mask)]
-            if clash or old.orientation is not None or orientation is not None:
+            if clash:
                 raise ValueError(
                     f"contradictory boundary conditions at rod {rod} node {at!r}: "
-                    f"'{kind}' on {clash or 'rotations'} meets an existing '{old.kind}'; "
-                    "each degree of freedom takes one support")
-            mask = old.mask | mask
-            pos_old, pos_new, m_old = old.position, position, old.mask[:3]
-            position = lambda lam: np.where(m_old, pos_old(lam), pos_new(lam))  # noqa: E731
-            kind = f"{old.kind}+{kind}"
+                    f"'{kind}' on {clash} meets an existing '{old.kind}'; each degree of "
+                    "freedom takes one support")
+            # disjoint dofs: merge (a rotation target exists only with all of rx ry rz)
+            old_position, translations = old.position, old.mask[:3]
+            new_position = position
+            position = lambda lam: np.where(translations, old_position(lam),  # noqa: E731
+                                            new_position(lam))
+            orientation = orientation if orientation is not None else old.orientation
+            mask, kind = old.mask | mask, f"{old.kind}+{kind}"
         self._supports[node] = _Support(kind, mask, position, orientation)
         return node
 
@@ -257,6 +261,13 @@ class BeamModel:
         du = du.reshape(-1, DOFS_PER_NODE)
         return BeamState(state.x + du[:, :3], rotate_spatially(state.q, du[:, 3:]))
 
+    def extrapolate(self, previous, state, factor):
+        """State reached by repeating the increment previous -> state ``factor`` times."""
+        dq = quat_multiply(state.q, quat_conjugate(previous.q))        # spatial increment
+        theta = rotation_vector(dq)
+        return BeamState(state.x + factor * (state.x - previous.x),
+                         rotate_spatially(state.q, factor * theta))
+
     def internal_forces(self, state, tangent=True, free=None):
         """Energy, internal forces (n_dofs,) and tangent (CSR; restricted to the
         ``free`` dofs if that mask is given) of a state."""
@@ -276,12 +287,14 @@ class BeamModel:
         """Newton problem (see :mod:`knitfem.solve.newton`) at load factor lam."""
         return StaticProblem(self, lam)
 
-    def solve(self, loads=(1.0,), state=None, **newton_options):
-        """Equilibria at the load factors ``loads`` (load stepping from ``state``,
-        default the layout).  Returns a list of :class:`knitfem.solve.Step`."""
+    def solve(self, loads=(1.0,), state=None, start=0.0, **newton_options):
+        """Equilibria at the load factors ``loads``, stepping from ``state`` (default
+        the layout) at load ``start``; failed steps are halved.  Returns a list of
+        :class:`knitfem.solve.Step`, one per load."""
         self.check()
         state = self.initial_state() if state is None else state
-        return load_stepping(self.static_problem, state, list(loads), **newton_options)
+        return load_stepping(self.static_problem, state, list(loads), start=start,
+                             **newton_options)
 
 
 class StaticProblem:
@@ -323,3 +336,8 @@ class StaticProblem:
         du = np.zeros(self.free.shape[0])
         du[self.free] = du_free
         return self.model.retract(state, du)
+
+    def extrapolate(self, previous, state, factor):
+        """Secant predictor: repeat the last increment (positions linearly,
+        rotations along their geodesics) ``factor`` times."""
+        return self.model.extrapolate(previous, state, factor)

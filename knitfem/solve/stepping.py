@@ -1,7 +1,10 @@
 """Incremental loading: Newton at a sequence of load factors, cutting steps on failure.
 
 Generic: ``problem_at(lam)`` returns a Newton problem (see
-:mod:`knitfem.solve.newton`) for the load factor ``lam``.
+:mod:`knitfem.solve.newton`) for the load factor ``lam``.  If that problem has
+``extrapolate(x_prev, x, factor)`` (the state reached by repeating the last
+increment ``factor`` times), each step starts from that secant predictor
+instead of the last equilibrium.
 """
 from dataclasses import dataclass, field
 
@@ -25,23 +28,29 @@ class Step:
     substeps: int = 1
 
 
-def load_stepping(problem_at, x0, loads, *, max_halvings=8, **newton_options):
+def load_stepping(problem_at, x0, loads, *, start=0.0, max_halvings=8, **newton_options):
     """Follow the equilibrium path through the load factors ``loads``, starting
-    from ``x0`` (equilibrium at the first load, or a guess for it).
+    from ``x0`` at load ``start`` (an equilibrium there, or a guess for it).
 
-    A failed increment is halved up to ``max_halvings`` times.  Returns one
+    A failed increment is halved (up to ``max_halvings`` times in a row) and
+    doubled again after each converged sub-step.  Returns one
     :class:`Step` per requested load; raises :class:`SteppingError` keeping the
     steps done and the last converged state.
     """
     steps = []
     x = x0
-    lam = loads[0] if len(loads) else 0.0
+    lam = float(start)
+    previous = None          # (load, state) of the equilibrium before x
     for target in loads:
         dlam, iterations, halvings, substeps = target - lam, 0, 0, 0
         while True:
             trial = target if abs(target - lam) <= abs(dlam) else lam + dlam
+            problem = problem_at(trial)
+            guess = x
+            if previous is not None and hasattr(problem, "extrapolate") and lam != previous[0]:
+                guess = problem.extrapolate(previous[1], x, (trial - lam) / (lam - previous[0]))
             try:
-                result = newton(problem_at(trial), x, where=f"load {trial:.6g}", **newton_options)
+                result = newton(problem, guess, where=f"load {trial:.6g}", **newton_options)
             except NewtonError as err:
                 halvings += 1
                 if halvings > max_halvings:
@@ -50,10 +59,12 @@ def load_stepping(problem_at, x0, loads, *, max_halvings=8, **newton_options):
                                         err.history, steps) from None
                 dlam *= 0.5
                 continue
+            previous = (lam, x)
             x, lam = result.state, trial
             iterations += result.iterations
             substeps += 1
             if lam == target:
                 break
+            dlam, halvings = 2.0 * dlam, 0     # a sub-step worked: try a longer one next
         steps.append(Step(target, x, iterations, result.history, substeps))
     return steps

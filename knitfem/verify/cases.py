@@ -102,8 +102,8 @@ def critical_load(model, bracket, *, xtol=1e-10):
     count = [0]
 
     def lowest(lam):
-        start = known[min(known, key=lambda k: abs(k - lam))]
-        steps = model.solve(loads=[lam], state=start)
+        start_lam = min(known, key=lambda k: abs(k - lam))
+        steps = model.solve(loads=[lam], state=known[start_lam], start=start_lam)
         known[lam] = steps[-1].state
         count[0] += 1
         K = model.internal_forces(steps[-1].state, free=~model.fixed)[2]
