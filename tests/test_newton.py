@@ -26,7 +26,8 @@ class Arctan:
     """atan(x) = 0: plain Newton diverges from |x0| > 1.39, a line search saves it."""
 
     def evaluate(self, x, jacobian=True):
-        return np.arctan(x), (np.diag(1 / (1 + x**2)) if jacobian else None), 1.0
+        with np.errstate(over="ignore"):
+            return np.arctan(x), (np.diag(1 / (1 + x**2)) if jacobian else None), 1.0
 
     def retract(self, x, dx):
         return x + dx
@@ -88,11 +89,17 @@ def test_load_stepping_halves_failed_steps_and_reports_what_it_kept():
 
 def test_beam_newton_needs_few_iterations_per_load_step_for_a_yarn_like_rod():
     """A rod of yarn-like slenderness (EA L^2/EI = 6400) bent to a tip rotation of
-    82 degrees in 10 steps: at most 8 Newton iterations per step (the first,
-    from the straight rod, takes the most) to a relative residual of 1e-10."""
+    82 degrees in 10 steps: at most 4 Newton iterations per step to a relative
+    residual of 1e-10, thanks to the exact position solve after each update;
+    without it 12.  Both give the same equilibrium."""
     from knitfem import Section
     section = Section.circle(0.05, E=1.0)
-    model = cases.cantilever_tip_load(32, alpha=10.0, section=section)
-    steps = model.solve(loads=np.linspace(0.1, 1.0, 10))
-    assert max(s.iterations for s in steps) <= 8
-    assert max(s.history[-1] for s in steps) < 1e-10
+    tips, iterations = [], []
+    for relax in (True, False):
+        model = cases.cantilever_tip_load(32, alpha=10.0, section=section)
+        steps = model.solve(loads=np.linspace(0.1, 1.0, 10), relax_positions=relax)
+        assert max(s.history[-1] for s in steps) < 1e-10
+        tips.append(steps[-1].state.x[-1])
+        iterations.append(max(s.iterations for s in steps))
+    assert iterations[0] <= 4 < iterations[1]
+    assert np.allclose(tips[0], tips[1], atol=1e-9)

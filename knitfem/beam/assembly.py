@@ -74,11 +74,14 @@ class RodAssembly:
         return x[a], x[b], q[a], q[b]
 
     def force_noise(self, x):
-        """Estimated round-off of the assembled internal forces (a norm)."""
+        """Round-off level of the assembled internal forces (a norm): chords
+        x_B - x_A carry an absolute error ~eps |x|, which C_N / h turns into a
+        force error per element.  Measured floors on the verification cases
+        lie between 0.35 and 0.9 of this estimate."""
         a, b = self.elements
         size = 0.5 * (np.abs(x[a]).max(axis=1) + np.abs(x[b]).max(axis=1))
         per_element = np.finfo(float).eps * self.CN.max(axis=1) * size / self.h
-        return float(np.sqrt(2.0 * np.sum(per_element**2)))
+        return float(np.sqrt(np.sum(per_element**2)))
 
     def strains(self, x, q):
         """Gamma, K (nel, 3) and midpoint triads (nel, 3, 3) of a configuration."""

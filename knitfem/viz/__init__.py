@@ -1,0 +1,1 @@
+"""Pictures: pyvista off-screen renders (imported lazily) and matplotlib helpers."""
