@@ -40,6 +40,12 @@ def case_column(n, section=None):
     return abs(crit.load / (4 * np.pi**2) - 1), None
 
 
+def column_prebuckling(n, section=None):
+    """Newton along the column's fundamental path up to 0.9 of the Euler load."""
+    model = cases.column(n, "clamped")
+    return None, model.solve(loads=np.linspace(0.09, 0.9, 10) * 4 * np.pi**2)
+
+
 def case_elastica(n, section=None):
     model = cases.cantilever_tip_load(n, alpha=10.0, section=section)
     steps = model.solve(loads=np.linspace(0.1, 1.0, 10))
@@ -107,8 +113,12 @@ def newton_iterations():
     yarn = Section.circle(3.0 / 105.0, E=1.0)       # the S-rod's slenderness, L = 1
     rows = []
     for label, section in (("stiff (EA L^2/EI = 1e8)", None), ("yarn-like (L/d = 35)", yarn)):
-        for name in ("a_half_circle", "c_elastica_PL2_EI_10"):
-            _, steps = CASES[name](64, section)
+        for name, fn in (("a_half_circle", case_half_circle),
+                         ("b_clamped_column (to 0.9 P_E)", column_prebuckling),
+                         ("c_elastica_PL2_EI_10", case_elastica)):
+            if section is not None and name.startswith("b"):
+                continue                                  # the column scene is stiff only
+            _, steps = fn(64, section)
             its = [s.iterations for s in steps]
             rows.append({"section": label, "case": name, "steps": len(steps),
                          "iterations_per_step": its, "max": max(its),
