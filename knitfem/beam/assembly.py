@@ -87,19 +87,25 @@ class RodAssembly:
         """Gamma, K (nel, 3) and midpoint triads (nel, 3, 3) of a configuration."""
         return element_strains(*self.element_arrays(x, q), self.h)
 
-    def forces(self, x, q, tangent=True, free=None):
+    def forces(self, x, q, tangent=True, free=None, direction=None):
         """Internal energy, internal force vector (n_dofs,) and tangent (CSR).
 
         x : (n_nodes, 3) positions; q : (n_nodes, 4) unit quaternions.
         free : optional boolean mask (n_dofs,); the tangent is then returned
         for the free dofs only (rows and columns), built without slicing.
+        direction : optional (n_dofs,); then K @ direction (all dofs) is
+        returned as a fourth value, summed element by element.
         """
         energy, res, Ke = element_forces(*self.element_arrays(x, q), self.h, self.gamma0,
                                          self.kappa0, self.CN, self.CM, tangent)
-        f = np.bincount(self.element_dofs.T.ravel(), weights=res.ravel(),
-                        minlength=self.n_dofs)
+        dofs = self.element_dofs.T
+        f = np.bincount(dofs.ravel(), weights=res.ravel(), minlength=self.n_dofs)
         K = self.scatter(Ke, free) if tangent else None
-        return float(energy.sum()), f, K
+        if direction is None:
+            return float(energy.sum()), f, K
+        Kv = np.einsum("eij,ej->ei", Ke, direction[dofs])
+        return float(energy.sum()), f, K, np.bincount(dofs.ravel(), weights=Kv.ravel(),
+                                                      minlength=self.n_dofs)
 
     # -- sparse assembly --------------------------------------------------------------
     def coo(self, Ke):

@@ -51,6 +51,11 @@ class _Support:
     position: object            # lam -> (3,) target position (fixed components used)
     orientation: object         # lam -> (4,) target quaternion, or None
 
+    @property
+    def moving(self):
+        """Whether the support follows the load factor (a prescribed motion)."""
+        return "prescribe" in self.kind
+
 
 def _vector(name, value, size=3):
     a = np.asarray(value, dtype=float).reshape(-1)
@@ -256,6 +261,22 @@ class BeamModel:
                 qn = np.asarray(sup.orientation(lam), dtype=float)
                 s.q[node] = qn if qn @ s.q[node] >= 0 else -qn
         return s
+
+    def support_velocity(self, lam, step=1e-6):
+        """d(prescribed dofs)/dlam (n_dofs,): translation rates and spatial
+        angular velocities of the supports at lam (central differences of the
+        user's path functions), zero elsewhere."""
+        v = np.zeros((self.assembly.n_nodes, DOFS_PER_NODE))
+        d = step * max(1.0, abs(lam))
+        for node, sup in self._supports.items():
+            if not sup.moving:
+                continue
+            rate = (np.asarray(sup.position(lam + d)) - np.asarray(sup.position(lam - d))) / (2 * d)
+            v[node, :3] = np.where(sup.mask[:3], rate, 0.0)
+            if sup.orientation is not None:
+                turn = quat_multiply(sup.orientation(lam + d), quat_conjugate(sup.orientation(lam - d)))
+                v[node, 3:] = rotation_vector(turn)[0] / (2 * d)
+        return v.ravel()
 
     def retract(self, state, du):
         """State reached by increments du (n_dofs,): x + u, q <- exp(theta) q."""

@@ -37,11 +37,25 @@ _B2 = _B1[1:] * np.arange(1, _CHORD_TERMS - 1)
 
 
 @njit(cache=True)
-def _poly(coef, x):
+def _poly(coef, x, terms):
+    """Horner on the first ``terms`` coefficients."""
     acc = 0.0
-    for i in range(coef.shape[0] - 1, -1, -1):
+    for i in range(min(terms, coef.shape[0]) - 1, -1, -1):
         acc = acc * x + coef[i]
     return acc
+
+
+@njit(cache=True)
+def _terms(eps):
+    """Series terms for ~1e-18 truncation at eps (most elements turn by < 0.1 rad,
+    eps < 1e-3, where 8 terms suffice and the kernel runs twice as fast)."""
+    if eps < 1e-3:
+        return 8
+    if eps < 1e-2:
+        return 12
+    if eps < 0.05:
+        return 20
+    return 40
 
 
 @njit(cache=True)
@@ -58,7 +72,7 @@ def log_coefficients(w, t):
         g_t = 0.0
         g_tt = 0.0
         pw = 1.0
-        for k in range(_LOG_TERMS):
+        for k in range(min(_LOG_TERMS, _terms(eps))):
             sgn = 1.0 if k % 2 == 0 else -1.0
             g += sgn * pw / (2 * k + 1)
             g_t -= sgn * (k + 1) * pw / (2 * k + 3)
@@ -80,7 +94,8 @@ def log_coefficients(w, t):
 def _chord_B(eps):
     """B(eps) = (C - 1)/eps and its first two derivatives in eps."""
     if eps < _CHORD_EPS:
-        return _poly(_B, eps), _poly(_B1, eps), _poly(_B2, eps)
+        m = _terms(eps)
+        return _poly(_B, eps, m), _poly(_B1, eps, m), _poly(_B2, eps, m)
     x = np.sqrt(eps)
     u = np.arctan(x)
     r = np.sqrt(1.0 + eps)

@@ -49,7 +49,10 @@ class NewtonResult:
 
 
 def linear_solve(J, b):
-    """Solve J x = b for a sparse or dense J; a singular J raises LinAlgError."""
+    """Solve J x = b for a sparse or dense J, or any object with ``solve(b)``
+    (e.g. a bordered system); a singular J raises RuntimeError or LinAlgError."""
+    if hasattr(J, "solve"):
+        return J.solve(b)
     if sparse.issparse(J):
         with np.errstate(all="ignore"):
             lu = splinalg.splu(J.tocsc())       # RuntimeError when exactly singular

@@ -3,12 +3,15 @@
 Generic: ``problem_at(lam)`` returns a Newton problem (see
 :mod:`knitfem.solve.newton`) for the load factor ``lam``.  If that problem has
 ``extrapolate(x_prev, x, factor)`` (the state reached by repeating the last
-increment ``factor`` times), each step starts from that secant predictor
-instead of the last equilibrium.
+increment ``factor`` times), each step first tries that secant predictor and
+falls back to the last equilibrium when Newton fails from it.
 """
 from dataclasses import dataclass, field
 
 from .newton import NewtonError, newton
+
+
+MAX_EXTRAPOLATION = 2.0   # never extrapolate the last increment more than twice
 
 
 class SteppingError(NewtonError):
@@ -47,12 +50,19 @@ def load_stepping(problem_at, x0, loads, *, start=0.0, max_halvings=8, **newton_
         while True:
             trial = target if abs(target - lam) <= abs(dlam) else lam + dlam
             problem = problem_at(trial)
-            guess = x
-            if previous is not None and hasattr(problem, "extrapolate") and lam != previous[0]:
-                guess = problem.extrapolate(previous[1], x, (trial - lam) / (lam - previous[0]))
-            try:
-                result = newton(problem, guess, where=f"load {trial:.6g}", **newton_options)
-            except NewtonError as err:
+            guesses = [x]
+            if previous is not None and hasattr(problem, "extrapolate"):
+                ratio = (trial - lam) / (lam - previous[0])
+                if 0.0 < ratio <= MAX_EXTRAPOLATION:
+                    guesses.insert(0, problem.extrapolate(previous[1], x, ratio))
+            result = err = None
+            for guess in guesses:          # the predictor first, the last equilibrium if it fails
+                try:
+                    result = newton(problem, guess, where=f"load {trial:.6g}", **newton_options)
+                    break
+                except NewtonError as e:
+                    err = e
+            if result is None:
                 halvings += 1
                 if halvings > max_halvings:
                     raise SteppingError(err.reason, f"{err}; the step from load {lam:.6g} "

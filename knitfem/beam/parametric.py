@@ -1,0 +1,66 @@
+"""A beam model as a parametrised system R(u, lam) = 0 for continuation.
+
+The parameter lam drives the loads (``lam * f_ext``) and the prescribed
+motions (the path functions given to ``BeamModel.prescribe``).  Unknowns are
+the increments of the free dofs; every state handed out satisfies the
+supports at its own lam.  dR/dlam is exact: the tangent times the supports'
+velocity, minus the load vector.
+"""
+import numpy as np
+
+from .assembly import DOFS_PER_NODE
+
+
+class ParametricProblem:
+    """R(u, lam) on the free dofs of ``model``, in the protocol of
+    :mod:`knitfem.solve.continuation`.
+
+    ``weights`` make the arclength an RMS over nodes: translations divided by
+    the model length scale, rotations in radians, both by sqrt(n_nodes), so a
+    step ds means about the same motion whatever the mesh.
+    """
+
+    def __init__(self, model):
+        model.check()
+        self.model = model
+        self.free = ~model.fixed
+        n_nodes = model.assembly.n_nodes
+        rotational = np.tile([False] * 3 + [True] * 3, n_nodes)
+        self.scale = np.where(rotational, 1.0 / model.length_scale(), 1.0)
+        w = np.where(rotational, 1.0, 1.0 / model.length_scale()) / np.sqrt(n_nodes)
+        self.weights = w[self.free]
+        self.f_ext = model.external_forces()
+
+    def state_at(self, state, lam):
+        """``state`` with its supported nodes moved to their values at lam."""
+        return self.model.apply_supports(state, lam)
+
+    def evaluate(self, state, lam, jacobian=True):
+        if jacobian:
+            _, f, J, Kv = self.model.assembly.forces(state.x, state.q, True, self.free,
+                                                     self.model.support_velocity(lam))
+        else:
+            _, f, J = self.model.assembly.forces(state.x, state.q, False)
+        R = f - lam * self.f_ext
+        ref = max(np.linalg.norm(f * self.scale), np.linalg.norm(lam * self.f_ext * self.scale),
+                  1e-300)
+        if not jacobian:
+            return R[self.free], None, None, ref
+        return R[self.free], J, (Kv - self.f_ext)[self.free], ref
+
+    def retract(self, state, du_free, lam):
+        du = np.zeros(self.free.shape[0])
+        du[self.free] = du_free
+        return self.model.apply_supports(self.model.retract(state, du), lam)
+
+    def norm(self, r_free):
+        return float(np.linalg.norm(r_free * self.scale[self.free]))
+
+    def noise(self, state):
+        return self.model.assembly.force_noise(state.x)
+
+    def full(self, v_free):
+        """A free-dof vector (e.g. a null vector) as (n_nodes, 6)."""
+        v = np.zeros(self.free.shape[0])
+        v[self.free] = v_free
+        return v.reshape(-1, DOFS_PER_NODE)

@@ -1,0 +1,1 @@
+"""Named experiments that wire geometry, models and solvers together."""
