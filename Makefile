@@ -7,7 +7,7 @@ VENV   := .venv
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= studies/results
 
-.PHONY: demo test bench system-deps clean-venv
+.PHONY: demo test gallery studies bench system-deps clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -19,13 +19,23 @@ system-deps:
 	@sh scripts/system-deps.sh
 
 demo: $(STAMP) system-deps
-	$(VENV)/bin/knitfem gallery --out $(OUT)/gallery
+	$(VENV)/bin/python studies/popup_fig4a.py --out $(OUT)/popup_fig4a
 
 test: $(STAMP) system-deps
 	$(VENV)/bin/python -m pytest -q
 
+gallery: $(STAMP) system-deps
+	$(VENV)/bin/knitfem gallery --out $(OUT)/gallery
+
+studies: $(STAMP) system-deps
+	$(VENV)/bin/python studies/popup_fig4a.py --out $(OUT)/popup_fig4a
+	$(VENV)/bin/python studies/popup_heatmap.py --out $(OUT)/popup_heatmap
+	$(VENV)/bin/python studies/popup_convergence.py --out $(OUT)/popup_convergence
+	$(VENV)/bin/knitfem gallery --out $(OUT)/gallery --quiet
+
 bench: $(STAMP)
 	$(VENV)/bin/python studies/bench_beam.py --out $(OUT)/bench_beam
+	$(VENV)/bin/python studies/bench_popup.py --out $(OUT)/bench_popup
 
 clean-venv:
 	rm -rf $(VENV)

@@ -23,7 +23,8 @@ def test_vtu_round_trip_keeps_positions_frames_and_strains(tmp_path, bent):
     assert np.allclose(mesh.points, state.x)
     assert np.allclose(mesh.point_data["d1"], state.frames[:, :, 0])
     assert mesh.cells_dict["line"].shape == (8, 2)
-    assert np.allclose(mesh.cell_data["curvature"][0][:, 1], np.pi, atol=1e-5)
+    assert np.allclose(mesh.cell_data["kappa"][0][:, 2], np.pi, atol=1e-5)
+    assert np.allclose(mesh.point_data["curvature"], np.pi, atol=1e-5)
     pvd = write_series(tmp_path / "s.pvd", [path], [1.0])
     assert 's.vtu' in pvd.read_text()
 
@@ -47,3 +48,25 @@ def test_cli_gallery_writes_its_summary(tmp_path):
     for name in ("a_rollup.png", "b_column_buckling.png", "c_elastica.png", "d_bend45.png",
                  "rollup/rollup.pvd"):
         assert (tmp_path / name).exists()
+
+
+def test_cli_popup_writes_json_csv_shapes_plot_and_render(tmp_path):
+    out, js = tmp_path / "run", tmp_path / "popup.json"
+    assert main(["popup", "--elements", "30", "--c-to", "0.55", "--c-step", "0.1",
+                 "--out", str(out), "--json", str(js), "--quiet"]) == 0
+    summary = json.loads(js.read_text())
+    assert set(summary) >= {"w_over_L", "elements", "gj_over_ei", "critical_c_over_L",
+                            "branch", "elapsed_s"}
+    assert [round(b["c_over_L"], 2) for b in summary["branch"]] == [0.95, 0.85, 0.75, 0.65, 0.55]
+    assert all(set(b) == {"c_over_L", "max_abs_z_over_L", "stable"} for b in summary["branch"])
+    for name in ("branch.csv", "branches.csv", "popup_z.png", "popup_c0.60.png",
+                 "shapes/popup.pvd", "shapes/popup_c0.9500.vtu"):
+        assert (out / name).exists(), name
+    mesh = meshio.read(out / "shapes" / "popup_c0.5500.vtu")
+    assert {"d1", "d2", "d3", "twist", "curvature"} <= set(mesh.point_data)
+
+
+def test_cli_reports_bad_input_without_a_traceback(capsys):
+    assert main(["popup", "--w-over-L", "1.2"]) == 2
+    err = capsys.readouterr().err
+    assert "w must be smaller than the rod length" in err and "Traceback" not in err

@@ -34,9 +34,10 @@ def test_popped_branches_are_stable_mirror_images(result):
     plus, minus = result.popped
     for branch, sign in ((plus, 1), (minus, -1)):
         assert branch.status == "completed" and branch.points[-1].lam == result.c_to
+        assert branch.points[0] is result.planar.events[0].point      # starts at the fork
         assert all(p.stable for p in branch.points[1:])
         z_mid = np.array([p.state.x[len(p.state.x) // 2, 2] for p in branch.points[1:]])
-        assert np.all(np.sign(z_mid) == sign) or np.all(np.sign(z_mid) == -sign)
+        assert np.all(np.sign(z_mid) == sign)
     a, b = plus.points[-1].state.x, minus.points[-1].state.x
     assert np.allclose(a[:, :2], b[:, :2], atol=1e-8) and np.allclose(a[:, 2], -b[:, 2], atol=1e-8)
 

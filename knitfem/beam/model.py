@@ -50,6 +50,7 @@ class _Support:
     mask: np.ndarray            # (6,) bool, fixed dofs of the node
     position: object            # lam -> (3,) target position (fixed components used)
     orientation: object         # lam -> (4,) target quaternion, or None
+    turn: object = None         # lam -> (3,) the prescribed rotation vector, if any
 
     @property
     def moving(self):
@@ -185,7 +186,9 @@ class BeamModel:
             orientation = lambda lam: quat_multiply(  # noqa: E731
                 rotation_from_vector(_vector("rotation(lam)", rot(lam)))[0], Q)
             mask[3:] = True
-        return self._support(rod, at, "prescribe", mask, position, orientation)
+        node = self._support(rod, at, "prescribe", mask, position, orientation)
+        self._supports[node].turn = rot if rotation is not None else None
+        return node
 
     def force(self, rod, at, F):
         """Dead nodal force (3,) at lam = 1."""
@@ -273,9 +276,11 @@ class BeamModel:
                 continue
             rate = (np.asarray(sup.position(lam + d)) - np.asarray(sup.position(lam - d))) / (2 * d)
             v[node, :3] = np.where(sup.mask[:3], rate, 0.0)
-            if sup.orientation is not None:
-                turn = quat_multiply(sup.orientation(lam + d), quat_conjugate(sup.orientation(lam - d)))
-                v[node, 3:] = rotation_vector(turn)[0] / (2 * d)
+            if sup.orientation is None or (sup.turn is not None and np.array_equal(
+                    np.asarray(sup.turn(lam + d)), np.asarray(sup.turn(lam - d)))):
+                continue                      # the frame does not turn with lam
+            turn = quat_multiply(sup.orientation(lam + d), quat_conjugate(sup.orientation(lam - d)))
+            v[node, 3:] = rotation_vector(turn)[0] / (2 * d)
         return v.ravel()
 
     def retract(self, state, du):

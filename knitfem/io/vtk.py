@@ -1,9 +1,10 @@
 """Rod configurations as VTK unstructured grids (meshio), readable in ParaView.
 
 Each node is a point, each element a ``line`` cell (meshio cannot write
-``polyline``).  Point data: the directors d1, d2, d3; cell data: material
-strains (axial/shear Gamma, twist and curvatures K), |curvature|, rod id.
-A branch or load history is a ``.pvd`` collection of ``.vtu`` files.
+``polyline``).  Point data: the directors d1, d2, d3, the twist K1 and the
+curvature |(K2, K3)| (averages of the adjacent elements); cell data: the
+material strains Gamma and K, and the rod id.  A branch or load history is a
+``.pvd`` collection of ``.vtu`` files.
 """
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -17,13 +18,18 @@ def beam_mesh(model, state, **extra_point_data):
     asm = model.assembly
     frames = state.frames
     gamma, kappa, _ = asm.strains(state.x, state.q)
-    point_data = {"d1": frames[:, :, 0], "d2": frames[:, :, 1], "d3": frames[:, :, 2]}
+    a, b = asm.elements
+    count = np.bincount(np.concatenate([a, b]), minlength=asm.n_nodes)
+
+    def at_nodes(values):
+        total = np.bincount(a, values, asm.n_nodes) + np.bincount(b, values, asm.n_nodes)
+        return total / np.maximum(count, 1)
+
+    point_data = {"d1": frames[:, :, 0], "d2": frames[:, :, 1], "d3": frames[:, :, 2],
+                  "twist": at_nodes(kappa[:, 0]),
+                  "curvature": at_nodes(np.linalg.norm(kappa[:, 1:], axis=1))}
     point_data.update({k: np.asarray(v) for k, v in extra_point_data.items()})
-    cell_data = {
-        "gamma": [gamma], "twist": [kappa[:, 0]], "curvature": [kappa[:, 1:]],
-        "curvature_magnitude": [np.linalg.norm(kappa[:, 1:], axis=1)],
-        "rod": [asm.rod_of_element.astype(np.int32)],
-    }
+    cell_data = {"gamma": [gamma], "kappa": [kappa], "rod": [asm.rod_of_element.astype(np.int32)]}
     return meshio.Mesh(state.x, [("line", asm.elements.T.astype(np.int64))],
                        point_data=point_data, cell_data=cell_data)
 

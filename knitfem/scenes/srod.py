@@ -24,8 +24,7 @@ from ..beam.element import element_forces
 from ..beam.parametric import ParametricProblem
 from ..beam.section import check_positive
 from ..geometry import planar_elastica
-from ..solve.continuation import FixedParameter, continuation, switch_branch
-from ..solve.newton import newton
+from ..solve.continuation import Continuation, continuation, switch_branch
 from ..solve.stability import negative_eigenvalue_count
 
 OUT_OF_PLANE = [2, 3, 4]      # uz, rx, ry
@@ -49,7 +48,8 @@ class SRod:
         self.w = check_positive("w", self.w)
         if self.w >= self.length:
             raise ValueError(f"w must be smaller than the rod length L = {self.length:g} "
-                             f"(valid: 0 < w/L < 1), got w = {self.w:g}")
+                             f"(valid: 0 < w/L < 1), got w = {self.w:g} "
+                             f"(w/L = {self.w / self.length:.4g})")
         self.diameter = check_positive("diameter", self.diameter)
         if isinstance(self.elements, bool) or int(self.elements) != self.elements \
                 or self.elements < 4:
@@ -137,9 +137,14 @@ class PopupResult:
             "elapsed_s": self.elapsed_s,
         }
 
+    def state_at(self, c_over_L):
+        """Equilibrium on the stable path at c/L (see :func:`stable_state`)."""
+        return stable_state(self.problem, self.planar, self.popped, self.critical_c_over_L,
+                            c_over_L)
+
     def branches(self):
         out = [("planar", self.planar)]
-        out += [(f"popped{'+' if k == 0 else '-'}", b) for k, b in enumerate(self.popped)]
+        out += [(f"popped (z {'>' if k == 0 else '<'} 0)", b) for k, b in enumerate(self.popped)]
         return out
 
 
@@ -149,6 +154,10 @@ def out_of_plane(problem, event):
         return False
     v = problem.full(event.null_vector)
     return np.linalg.norm(v[:, OUT_OF_PLANE]) > np.linalg.norm(np.delete(v, OUT_OF_PLANE, 1))
+
+
+def _mid_height(state):
+    return float(state.x[state.x.shape[0] // 2, 2])
 
 
 def max_abs_z(state):
@@ -186,22 +195,36 @@ def popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, ds=0.2, progress=None):
     popped = []
     if critical is not None:
         for sign in (1.0, -1.0):
-            popped.append(switch_branch(problem, critical, sign=sign, **options))
+            branch = switch_branch(problem, critical, sign=sign, eps=0.25 * ds, **options)
+            branch.points.insert(0, critical.point)      # draw it from the bifurcation
+            popped.append(branch)
+        # z > 0 first: the null vector's sign is arbitrary
+        popped.sort(key=lambda b: -_mid_height(b.points[-1].state))
     samples = _sample(problem, planar, popped, critical, c_from, c_to, c_step, srod.length)
     elapsed = time.perf_counter() - t0
     return PopupResult(srod, c_from, c_to, None if critical is None else critical.lam, planar,
                        popped, samples, elapsed, model, problem)
 
 
+def stable_state(problem, planar, popped, c_crit, c):
+    """Equilibrium on the stable path at c/L: the planar branch above the
+    critical point, the first popped branch below; Newton at fixed c from the
+    nearest continuation point."""
+    below = popped and c_crit is not None and c < c_crit
+    branch = popped[0] if below else planar
+    near = min(branch.points, key=lambda p: abs(p.lam - c))
+    if near.lam == c:
+        return near.state
+    return Continuation(problem).land(near, c).state
+
+
 def _sample(problem, planar, popped, critical, c_from, c_to, c_step, L):
     """The stable path at c_from, c_from - c_step, ... >= c_to."""
     grid = c_from - c_step * np.arange(int(np.floor((c_from - c_to) / c_step + 1e-9)) + 1)
-    c_crit = -np.inf if critical is None else critical.lam
+    c_crit = None if critical is None else critical.lam
     out = []
     for c in grid:
-        branch = planar if (c >= c_crit or not popped) else popped[0]
-        near = min(branch.points, key=lambda p: abs(p.lam - c))
-        state = newton(FixedParameter(problem, c), near.state, where=f"c/L = {c:.4g}").state
+        state = stable_state(problem, planar, popped, c_crit, c)
         _, J, _, _ = problem.evaluate(state, c, True)
         neg = negative_eigenvalue_count(J)
         out.append(Sample(float(c), max_abs_z(state) / L, neg == 0, neg, state))

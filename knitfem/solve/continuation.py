@@ -10,8 +10,9 @@ Generic: a *problem* provides
     the state reached from x by the increment dx (n,) at parameter lam;
 
 and optionally ``weights`` (n,) (the arclength metric, making unknowns of
-different units comparable), ``norm(R)``, ``noise(x)`` (as for Newton) and
-``state_at(x, lam)``.  Nothing here knows about beams.
+different units comparable), ``norm(R)``, ``noise(x)`` (as for Newton),
+``state_at(x, lam)`` and ``ordering`` (SuperLU's permc_spec).  Nothing here
+knows about beams.
 
 Every point carries its unit tangent (t_x, t_lam) in the weighted norm and
 the inertia of sym(J): the number of negative eigenvalues (0 = stable for a
@@ -89,12 +90,12 @@ class Bordered:
     one LU of J, or (J singular, or the Schur complement d - c^T J^-1 b lost to
     cancellation) an LU of the bordered matrix."""
 
-    def __init__(self, J, b, c, d):
+    def __init__(self, J, b, c, d, ordering="COLAMD"):
         self.J, self.b, self.c, self.d = sparse.csc_matrix(J), np.asarray(b), np.asarray(c), d
         self.lu = self.z = self.full = None
         try:
             with np.errstate(all="ignore"):
-                self.lu = splinalg.splu(self.J)
+                self.lu = splinalg.splu(self.J, permc_spec=ordering)
                 self.z = self.lu.solve(self.b)
             self.schur = self.d - self.c @ self.z
             scale = abs(self.d) + np.abs(self.c) @ np.abs(self.z)
@@ -108,7 +109,8 @@ class Bordered:
             rows = np.concatenate([coo.row, np.arange(n), np.full(n, n), [n]])
             cols = np.concatenate([coo.col, np.full(n, n), np.arange(n), [n]])
             data = np.concatenate([coo.data, self.b, self.c, [self.d]])
-            self.full = splinalg.splu(sparse.csc_matrix((data, (rows, cols)), shape=(n + 1, n + 1)))
+            self.full = splinalg.splu(sparse.csc_matrix((data, (rows, cols)), shape=(n + 1, n + 1)),
+                                      permc_spec=ordering)
 
     def solve(self, rhs):
         if self.lu is None:
@@ -117,6 +119,12 @@ class Bordered:
         z1 = self.lu.solve(f)
         y = (g - self.c @ z1) / self.schur
         return np.append(z1 - self.z * y, y)
+
+
+def _ordering(problem):
+    """Column ordering for SuperLU: the problem's hint (e.g. 'NATURAL' for banded
+    Jacobians, where it skips the ordering work), else COLAMD."""
+    return getattr(problem, "ordering", "COLAMD")
 
 
 class FixedParameter:
@@ -157,7 +165,9 @@ class _Corrector:
         x, lam, delta = y
         R, J, R_lam, ref = self.problem.evaluate(x, lam, jacobian)
         r = np.append(R, self.row @ delta + self.tl * (lam - self.lam_p))
-        return r, (Bordered(J, R_lam, self.row, self.tl) if jacobian else None), ref
+        if not jacobian:
+            return r, None, ref
+        return r, Bordered(J, R_lam, self.row, self.tl, _ordering(self.problem)), ref
 
     def retract(self, y, dy):
         x, lam, delta = y
@@ -196,7 +206,7 @@ class Continuation:
         _, J, R_lam, _ = self.problem.evaluate(x, lam, True)
         rhs = np.zeros(J.shape[0] + 1)
         rhs[-1] = 1.0
-        t = Bordered(J, R_lam, w**2 * tx_ref, tl_ref).solve(rhs)
+        t = Bordered(J, R_lam, w**2 * tx_ref, tl_ref, _ordering(self.problem)).solve(rhs)
         tx, tl = t[:-1], t[-1]
         size = np.sqrt(np.sum((w * tx) ** 2) + tl**2)
         tx, tl = tx / size, tl / size

@@ -15,15 +15,13 @@ def _pyvista():
     return pv
 
 
-def render_rods(path, mesh, radius, *, scalars="curvature_magnitude", view="iso",
-                window_size=(1200, 900), title=None, camera_up=(0, 0, 1)):
+def render_rods(path, mesh, radius, *, scalars="curvature", view="iso",
+                window_size=(1200, 900), title=None, camera_up=(0, 0, 1), zoom=1.0):
     """Render a meshio line mesh (see :mod:`knitfem.io.vtk`) as tubes of the
     given radius to a PNG.  ``view``: 'iso', 'xy', 'xz', 'yz' or a direction
     (3,) from which the camera looks at the scene."""
     pv = _pyvista()
     grid = pv.from_meshio(mesh).extract_surface(algorithm=None)
-    if scalars in grid.cell_data:
-        grid = grid.cell_data_to_point_data()
     # join the two-node cells into polylines so each rod is one seamless tube
     tube = grid.strip(join=True).tube(radius=radius, n_sides=24)
     plotter = pv.Plotter(off_screen=True, window_size=window_size)
@@ -39,6 +37,7 @@ def render_rods(path, mesh, radius, *, scalars="curvature_magnitude", view="iso"
     plotter.camera_position = [tuple(center + d / np.linalg.norm(d) * 3 * tube.length),
                                tuple(center), camera_up]
     plotter.reset_camera()
+    plotter.camera.zoom(zoom)
     if title:
         plotter.add_text(title, font_size=12, color="black")
     plotter.screenshot(str(path))

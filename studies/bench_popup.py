@@ -1,0 +1,56 @@
+"""Benchmark of the S-rod pop-up (issue 3): the whole sweep at 60 elements
+(solver time, critical point accuracy), the heat map wall time on all cores.
+
+    python studies/bench_popup.py --out studies/results/bench_popup
+
+Timing: ``elapsed_s`` of :func:`knitfem.scenes.srod.popup` (solver wall time,
+after imports and the numba warm-up), median of repeated runs.
+"""
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from knitfem.scenes.popup_sweep import heat_map
+from knitfem.scenes.srod import SRod, popup
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--out", default="studies/results/bench_popup")
+    parser.add_argument("--repeat", type=int, default=7)
+    args = parser.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    runs = [popup(SRod()) for _ in range(args.repeat)]
+    times = np.array([r.elapsed_s for r in runs])
+    event = runs[0].planar.events[0]
+    r = runs[0]
+    sweep = {"elements": 60, "elapsed_s_median": float(np.median(times)),
+             "elapsed_s_min": float(times.min()), "elapsed_s_max": float(times.max()),
+             "critical_c_over_L": r.critical_c_over_L, "location_bracket": event.bracket,
+             "continuation_points": {n: len(b.points) for n, b in r.branches()},
+             "corrector_iterations": int(sum(p.iterations for _, b in r.branches()
+                                             for p in b.points))}
+    print(f"sweep c/L 0.95 -> 0.45, 60 elements: median {sweep['elapsed_s_median']:.3f} s "
+          f"(min {times.min():.3f}, max {times.max():.3f}); c_crit/L = {r.critical_c_over_L:.9f} "
+          f"located to {event.bracket:.1e}")
+
+    w = np.linspace(0.05, 0.50, 12)
+    c = np.round(0.95 - 0.025 * np.arange(23), 10)
+    t = time.perf_counter()
+    hm = heat_map(w, c, progress=False)
+    wall = time.perf_counter() - t
+    heat = {"grid": [len(w), len(c)], "wall_s": wall, "solver_s_sum": float(hm.elapsed.sum()),
+            "errors": hm.errors}
+    print(f"heat map {len(w)} x {len(c)}: {wall:.1f} s wall on all cores "
+          f"(solver time summed over columns {hm.elapsed.sum():.1f} s)")
+    (out / "bench_popup.json").write_text(json.dumps({"sweep": sweep, "heat_map": heat},
+                                                     indent=2))
+
+
+if __name__ == "__main__":
+    main()
