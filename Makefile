@@ -7,7 +7,7 @@ VENV   := .venv
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= studies/results
 
-.PHONY: demo test gallery studies bench system-deps clean-venv
+.PHONY: demo test gallery studies bench bench-elastica system-deps clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,13 @@ studies: $(STAMP) system-deps
 bench: $(STAMP)
 	$(VENV)/bin/python studies/bench_beam.py --out $(OUT)/bench_beam
 	$(VENV)/bin/python studies/bench_popup.py --out $(OUT)/bench_popup
+
+# optional: knitfem vs PyElastica on the S-rod (own venv, pyelastica is not a dependency)
+bench-elastica: $(STAMP)
+	test -x .venv-elastica/bin/python || $(PYTHON) -m venv .venv-elastica
+	.venv-elastica/bin/python -m pip install --quiet pyelastica -e .
+	NUMBA_CACHE_DIR=.numba-elastica .venv-elastica/bin/python studies/bench_pyelastica.py \
+		--out $(OUT)/bench_pyelastica
 
 clean-venv:
 	rm -rf $(VENV)

@@ -1,12 +1,18 @@
 """Optional benchmark: knitfem against PyElastica on the S-rod pop-up at c/L = 0.6.
 
+PyElastica (PyPI ``pyelastica``, import ``elastica``) is not a knitfem
+dependency; give it its own virtualenv with knitfem installed next to it::
+
+    python3 -m venv /tmp/elastica-venv
+    /tmp/elastica-venv/bin/pip install pyelastica      # 1.0.0: numpy 2.4, numba 0.68
+    /tmp/elastica-venv/bin/pip install -e .
     NUMBA_CACHE_DIR=/tmp/numba-cache /tmp/elastica-venv/bin/python \\
         studies/bench_pyelastica.py --out studies/results/bench_pyelastica
 
-PyElastica (PyPI ``pyelastica``, import ``elastica``) is not a knitfem
-dependency: install it in a separate virtualenv next to knitfem (see the
-module's report in ``bench_pyelastica.md``).  Without it the script says so
-and exits with code 3.
+(NUMBA_CACHE_DIR keeps this environment's compiled kernels out of the
+source tree's __pycache__, which the project's own .venv uses.)  Without
+PyElastica the script says so and exits with code 3.  About 25 s in all
+(--refine with no value skips the 120/240-element runs: about 10 s).
 
 Scene (knitfem's ``SRod`` defaults): naturally straight rod, L = 105 mm,
 d = 3 mm, E = 1 MPa, nu = 0.5 (G = E/3, GJ/EI = 2/3), 60 elements, clamped
@@ -71,44 +77,71 @@ class Scene:
 
     @property
     def c(self):
+        """Course length, mm."""
         return self.c_over_L * self.length
-
-    @property
-    def EI(self):
-        """Bending stiffness, N mm^2."""
-        return self.E * math.pi * self.diameter**4 / 64.0
 
 
 # --------------------------------------------------------------------------- knitfem
 
-def knitfem_popup(scene, c_from=0.95, c_step=0.05):
+def srod_of(scene):
+    from knitfem.scenes.srod import SRod
+
+    return SRod(length=scene.length, w=scene.w, diameter=scene.diameter, E=scene.E,
+                poisson=scene.poisson, elements=scene.elements)
+
+
+def knitfem_popup(scene, repeat=1, c_from=0.95, c_step=0.05):
     """Continuation from c_from down to scene.c_over_L (knitfem's own protocol).
 
-    Returns (summary dict, centreline (n+1, 3) in mm at c/L = scene.c_over_L).
-    ``elapsed_s`` is popup's solver time; numba compilation is excluded by its
-    own warm-up (reported as ``warm_up_s``).
+    ``popup`` warms up only the element kernel; its first call in a process
+    still compiles (or loads from numba's cache) the rest, so that call is
+    reported apart (``first_call_s``) and ``elapsed_s`` is the median of
+    ``repeat`` further calls (popup's own ``elapsed_s``, s).  Returns (summary
+    dict, centreline (n+1, 3) in mm at c/L = scene.c_over_L).
     """
-    from knitfem.scenes.srod import SRod, popup, warm_up
+    from knitfem.scenes.srod import popup
+
+    def run():
+        return popup(srod_of(scene), c_from=c_from, c_to=scene.c_over_L, c_step=c_step)
 
     t = time.perf_counter()
-    warm_up()
-    warm = time.perf_counter() - t
-    srod = SRod(length=scene.length, w=scene.w, diameter=scene.diameter, E=scene.E,
-                poisson=scene.poisson, elements=scene.elements)
-    t = time.perf_counter()
-    result = popup(srod, c_from=c_from, c_to=scene.c_over_L, c_step=c_step)
-    wall = time.perf_counter() - t
+    run()
+    first = time.perf_counter() - t
+    results = [run() for _ in range(repeat)]
+    times = [r.elapsed_s for r in results]
+    result = results[-1]
     sample = min(result.samples, key=lambda s: abs(s.c_over_L - scene.c_over_L))
     summary = {
-        "protocol": f"popup(SRod(), c_from={c_from}, c_to={scene.c_over_L}, c_step={c_step})",
+        "protocol": f"popup(SRod(elements={scene.elements}), c_from={c_from}, "
+                    f"c_to={scene.c_over_L}, c_step={c_step})",
         "max_abs_z_over_L": sample.max_abs_z_over_L,
         "stable": bool(sample.stable),
         "critical_c_over_L": result.critical_c_over_L,
-        "elapsed_s": result.elapsed_s,
-        "wall_s": wall,
-        "warm_up_s": warm,
+        "elapsed_s": float(np.median(times)),
+        "elapsed_runs_s": times,
+        "first_call_s": first,
     }
     return summary, sample.state.x.copy()
+
+
+def knitfem_short_rod(scene):
+    """max|z| (over the true L) of knitfem's rod made one element length h = L/n
+    shorter, same clamps (w, c in mm) and element count.
+
+    A diagnostic for PyElastica's first-order mesh error: its clamps hold the
+    director of the whole end element and its bending lives at the interior
+    nodes' Voronoi domains, so about h/2 at each end never bends; if that is
+    the cause, PyElastica at n elements matches this rod, not the rod of length L.
+    """
+    from knitfem.scenes.srod import popup
+
+    short = Scene(**{**asdict(scene), "length": scene.length * (1.0 - 1.0 / scene.elements)})
+    short.c_over_L = scene.c / short.length          # the far clamp stays at c (mm)
+    result = popup(srod_of(short), c_from=short.c_over_L + 0.3, c_to=short.c_over_L,
+                   c_step=0.05)
+    return {"length_mm": short.length,
+            "max_abs_z_over_L": result.samples[-1].max_abs_z_over_L * short.length
+            / scene.length}
 
 
 def knitfem_cold_newton(scene, bumps=(0.01, 0.05, 0.1)):
@@ -121,13 +154,12 @@ def knitfem_cold_newton(scene, bumps=(0.01, 0.05, 0.1)):
     eigenvalues of the tangent).  Time includes building the model.
     """
     from knitfem.beam.parametric import ParametricProblem
-    from knitfem.scenes.srod import SRod, max_abs_z
+    from knitfem.scenes.srod import max_abs_z
     from knitfem.solve.continuation import FixedParameter
     from knitfem.solve.newton import NewtonError, newton
     from knitfem.solve.stability import negative_eigenvalue_count
 
-    srod = SRod(length=scene.length, w=scene.w, diameter=scene.diameter, E=scene.E,
-                poisson=scene.poisson, elements=scene.elements)
+    srod = srod_of(scene)
     lam = scene.c_over_L
     attempts = []
     for bump in bumps:
@@ -217,10 +249,11 @@ class SRodSimulator(*_Simulator):
 class Dynamics:
     """PyElastica run parameters in SI (s, 1/s); see ``build_pyelastica``.
 
-    Statics do not depend on the density or on these; they set only how long
-    the settling takes.  Chosen by a small scan at 60 elements (ramp 0.25 or
-    0.5 s, damping 20/40/80 1/s, dt 2e-5 or 4e-5 s: all reach the same shape,
-    max|z|/L equal to 1e-7; this setting is within 10 % of the fastest).
+    Statics depend neither on these nor on the density; they set how long the
+    settling takes.  Chosen by a small scan at 60 elements (ramp 0.25 or 0.5 s,
+    damping 20, 40 or 80 1/s, dt 2e-5 or 4e-5 s): all twelve reach the same
+    shape (max|z|/L equal to 1e-7); damping 40 was the fastest, ramp 0.25 s
+    would save ~5 %.
     """
     ramp_time: float = 0.5        # s; ~1 bending time T_b, slow enough to stay near-static
     dt: float = 4.0e-5            # s at 60 elements; the axial-wave limit is dx/c = 5.8e-5 s
@@ -367,72 +400,135 @@ def warm_up_pyelastica(scene, dyn):
 def compare(scene, x_kf, x_pe):
     """Node-by-node distance of the centrelines over L, after mirroring knitfem's
     shape in z if needed (z -> -z maps the problem to itself: both popped
-    branches are equilibria and which one a run picks is a matter of the
+    branches are equilibria, and which one a run takes is up to its
     imperfection).  Returns (dict, knitfem centreline as compared)."""
     mid = x_kf.shape[0] // 2
     flip = bool(np.sign(x_kf[mid, 2]) != np.sign(x_pe[mid, 2]))
     x_kf = x_kf * np.array([1.0, 1.0, -1.0 if flip else 1.0])
     d = np.linalg.norm(x_kf - x_pe, axis=1) / scene.length
-    return {"knitfem_z_mirrored": flip, "max_node_distance_over_L": float(d.max()),
-            "rms_node_distance_over_L": float(np.sqrt(np.mean(d**2))),
-            "pyelastica_mid_z_sign": int(np.sign(x_pe[mid, 2]))}, x_kf
+    return {"knitfem_z_mirrored": flip, "pyelastica_mid_z_sign": int(np.sign(x_pe[mid, 2])),
+            "max_node_distance_over_L": float(d.max()),
+            "rms_node_distance_over_L": float(np.sqrt(np.mean(d**2)))}, x_kf
 
 
-def plot(path, scene, x_kf, x_pe):
+def refinement(scene, dyn, levels, log=print):
+    """Both codes at finer meshes (same protocols, PyElastica's dt scaled with
+    the element length), one run each.  Returns the rows and the finest
+    PyElastica centreline (mm)."""
+    rows, x_fine = [], None
+    for n in levels:
+        sc = Scene(**{**asdict(scene), "elements": n})
+        kf, _ = knitfem_popup(sc, repeat=1)
+        pe, x_fine = run_to_equilibrium(sc, dyn.for_elements(n), log=log)
+        rows.append({"elements": n, "knitfem_max_abs_z_over_L": kf["max_abs_z_over_L"],
+                     "knitfem_elapsed_s": kf["elapsed_s"],
+                     "pyelastica_max_abs_z_over_L": pe["max_abs_z_over_L"],
+                     "pyelastica_wall_s": pe["wall_s"], "pyelastica_status": pe["status"]})
+    return rows, x_fine
+
+
+def extrapolate(rows, key, order):
+    """Richardson extrapolation h -> 0 from the two finest meshes (element
+    counts in ratio r): z + (z - z_coarse) / (r^order - 1); None if < 2 rows."""
+    if len(rows) < 2:
+        return None
+    a, b = rows[-2], rows[-1]
+    r = b["elements"] / a["elements"]
+    return b[key] + (b[key] - a[key]) / (r**order - 1.0)
+
+
+def plot(path, scene, x_kf, x_pe, x_fine=None, n_fine=None):
+    """Centrelines over L, x-z and y-z views."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     L = scene.length
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.4))
     for ax, (i, name) in zip(axes, [(0, "x"), (1, "y")]):
-        ax.plot(x_kf[:, i] / L, x_kf[:, 2] / L, "-", color="C0", lw=2.5, label="knitfem")
+        ax.plot(x_kf[:, i] / L, x_kf[:, 2] / L, "-", color="C0", lw=2.5,
+                label=f"knitfem, {scene.elements} el.")
         ax.plot(x_pe[:, i] / L, x_pe[:, 2] / L, "o", color="C3", ms=3.5, mfc="none",
-                label="PyElastica")
+                label=f"PyElastica, {scene.elements} el.")
+        if x_fine is not None:
+            ax.plot(x_fine[:, i] / L, x_fine[:, 2] / L, "--", color="C2", lw=1.2,
+                    label=f"PyElastica, {n_fine} el.")
         ax.set_xlabel(f"{name} / L")
         ax.set_ylabel("z / L")
         ax.set_aspect("equal")
         ax.grid(alpha=0.3)
         ax.set_title(f"{name}-z view")
-    axes[0].legend(loc="best")
-    fig.suptitle(f"S-rod at c/L = {scene.c_over_L}, w/L = {scene.w / L:.3f}, "
-                 f"{scene.elements} elements")
+    axes[1].legend(loc="lower center", fontsize=8)
+    fig.suptitle(f"S-rod at c/L = {scene.c_over_L}, w/L = {scene.w / L:.3f}: "
+                 "popped equilibrium")
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
 
 
 def table(out):
-    kf, pe, cmp_ = out["knitfem"], out["pyelastica"], out["comparison"]
+    """The markdown summary (printed and written to bench_pyelastica.md)."""
+    sc, kf, pe, cmp_ = out["scene"], out["knitfem"], out["pyelastica"], out["comparison"]
+    short = out["knitfem_short_rod"]
     dz = pe["max_abs_z_over_L"] - kf["max_abs_z_over_L"]
     lines = [
-        f"S-rod at c/L = {out['scene']['c_over_L']}, {out['scene']['elements']} elements "
-        f"(pyelastica {out['versions']['pyelastica']})",
+        f"S-rod at c/L = {sc['c_over_L']}, w/L = {sc['w'] / sc['length']:.4f}, "
+        f"{sc['elements']} elements; pyelastica {out['versions']['pyelastica']}, "
+        f"knitfem {out['versions']['knitfem']}",
         "",
         "| solver | protocol | max\\|z\\|/L | wall time (s) |",
         "|---|---|---:|---:|",
-        f"| knitfem | continuation 0.95 -> {out['scene']['c_over_L']} (elapsed_s) | "
-        f"{kf['max_abs_z_over_L']:.5f} | {kf['elapsed_s']:.2f} |",
+        f"| knitfem | continuation c/L 0.95 -> {sc['c_over_L']}, popup elapsed_s, median of "
+        f"{len(kf['elapsed_runs_s'])} | {kf['max_abs_z_over_L']:.5f} | {kf['elapsed_s']:.2f} |",
     ]
     for a in out["knitfem_cold_newton"]:
-        if a["converged"]:
-            where = "popped" if a["negative_eigenvalues"] == 0 else \
-                f"unstable, {a['negative_eigenvalues']} neg. eig."
-            lines.append(f"| knitfem | one Newton, bump {a['bump_over_L']} L "
-                         f"({a['iterations']} it., {where}) | {a['max_abs_z_over_L']:.5f} | "
+        if not a["converged"]:
+            lines.append(f"| knitfem | one Newton, bump {a['bump_over_L']} L: failed | - | "
                          f"{a['time_s']:.3f} |")
+            continue
+        where = "stable, popped" if a["negative_eigenvalues"] == 0 else \
+            f"unstable: {a['negative_eigenvalues']} neg. eigenvalues"
+        lines.append(f"| knitfem | one Newton from planar + {a['bump_over_L']} L bump "
+                     f"({a['iterations']} it., {where}) | {a['max_abs_z_over_L']:.5f} | "
+                     f"{a['time_s']:.3f} |")
+    for m in pe["milestones"][:-1]:
+        lines.append(f"| PyElastica | same run, residual < {m['force_tol']:g} EI/L^2 first met "
+                     f"({m['simulated_s']:.3f} s simulated) | {m['max_abs_z_over_L']:.5f} | "
+                     f"{m['wall_s']:.2f} |")
     lines += [
         f"| PyElastica | damped dynamics to residual < {out['dynamics']['force_tol']:g} EI/L^2 "
-        f"({pe['status']}, {pe['simulated_s']:.2f} s simulated, {pe['steps']} steps) | "
-        f"{pe['max_abs_z_over_L']:.5f} | {pe['wall_s']:.2f} |",
+        f"({pe['status']}, {pe['simulated_s']:.3f} s simulated, {pe['steps']} steps, median "
+        f"of {len(pe['wall_runs_s'])}) | {pe['max_abs_z_over_L']:.5f} | {pe['wall_s']:.2f} |",
         "",
-        f"max|z|/L difference (PyElastica - knitfem): {dz:+.2e} "
-        f"({dz / kf['max_abs_z_over_L']:+.2%}); centrelines node by node: max "
-        f"{cmp_['max_node_distance_over_L']:.2e} L, rms {cmp_['rms_node_distance_over_L']:.2e} L"
+        f"- max|z|/L, PyElastica - knitfem: {dz:+.5f} ({dz / kf['max_abs_z_over_L']:+.2%}); "
+        f"centrelines node by node: max {cmp_['max_node_distance_over_L']:.4f} L, "
+        f"rms {cmp_['rms_node_distance_over_L']:.4f} L"
         f"{' (knitfem mirrored in z)' if cmp_['knitfem_z_mirrored'] else ''}",
-        f"wall time ratio PyElastica / knitfem continuation: "
+        f"- knitfem with the rod one element shorter (L - h = {short['length_mm']:.2f} mm, "
+        f"same clamps): max|z|/L = {short['max_abs_z_over_L']:.5f}, "
+        f"near PyElastica's {pe['max_abs_z_over_L']:.5f}: consistent with PyElastica's clamps "
+        "holding the whole end element, so that ~h/2 at each end does not bend (its mesh "
+        "error is first order, below)",
+        f"- wall time, PyElastica / knitfem continuation: "
         f"{pe['wall_s'] / kf['elapsed_s']:.1f}",
     ]
+    ref = out.get("refinement")
+    if ref:
+        lines += ["", "Mesh refinement (one run each):", "",
+                  "| elements | knitfem max\\|z\\|/L | PyElastica max\\|z\\|/L | difference | "
+                  "knitfem (s) | PyElastica (s) |", "|---:|---:|---:|---:|---:|---:|"]
+        base = [{"elements": sc["elements"], "knitfem_max_abs_z_over_L": kf["max_abs_z_over_L"],
+                 "pyelastica_max_abs_z_over_L": pe["max_abs_z_over_L"],
+                 "knitfem_elapsed_s": kf["elapsed_s"], "pyelastica_wall_s": pe["wall_s"]}]
+        for r in base + ref:
+            a, b = r["knitfem_max_abs_z_over_L"], r["pyelastica_max_abs_z_over_L"]
+            lines.append(f"| {r['elements']} | {a:.5f} | {b:.5f} | {b - a:+.5f} | "
+                         f"{r['knitfem_elapsed_s']:.2f} | {r['pyelastica_wall_s']:.2f} |")
+        ex = out["extrapolated"]
+        if ex["knitfem"] is not None:
+            lines.append(f"| h -> 0 (Richardson) | {ex['knitfem']:.5f} (2nd order) | "
+                         f"{ex['pyelastica']:.5f} (1st order) | "
+                         f"{ex['pyelastica'] - ex['knitfem']:+.5f} | | |")
     return "\n".join(lines)
 
 
@@ -448,44 +544,73 @@ def versions():
     return out
 
 
+def no_elastica():
+    print("bench_pyelastica: PyElastica is not installed (import elastica failed).\n"
+          "It is an optional dependency of this benchmark only; set up a separate\n"
+          "environment, e.g.\n"
+          "  python3 -m venv /tmp/elastica-venv\n"
+          "  /tmp/elastica-venv/bin/pip install pyelastica\n"
+          "  /tmp/elastica-venv/bin/pip install -e .\n"
+          "and run this script with /tmp/elastica-venv/bin/python.", file=sys.stderr)
+    return EXIT_NO_ELASTICA
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="studies/results/bench_pyelastica", help="output folder")
     ap.add_argument("--c", type=float, default=0.6, help="course length c/L (default 0.6)")
+    ap.add_argument("--elements", type=int, default=60, help="elements (default 60)")
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="timed runs of each code at --elements; medians reported (default 3)")
+    ap.add_argument("--refine", type=int, nargs="*", default=[120, 240],
+                    help="finer meshes for the refinement study (default 120 240; none: skip)")
     ap.add_argument("--damping", type=float, default=Dynamics.damping, help="1/s")
-    ap.add_argument("--dt", type=float, default=Dynamics.dt, help="time step, s")
+    ap.add_argument("--dt", type=float, default=Dynamics.dt, help="time step at 60 elements, s")
     ap.add_argument("--force-tol", type=float, default=Dynamics.force_tol,
-                    help="static test: max nodal force over EI/L^2")
+                    help="static test: max nodal force over EI/L^2 (default 1e-6)")
     args = ap.parse_args(argv)
-
     if ea is None:
-        print("bench_pyelastica: PyElastica is not installed (import elastica failed).\n"
-              "It is an optional dependency; set up a separate environment, e.g.\n"
-              "  python3 -m venv /tmp/elastica-venv\n"
-              "  /tmp/elastica-venv/bin/pip install pyelastica\n"
-              "  /tmp/elastica-venv/bin/pip install -e .\n"
-              "and run this script with /tmp/elastica-venv/bin/python.", file=sys.stderr)
-        return EXIT_NO_ELASTICA
+        return no_elastica()
 
-    scene = Scene(c_over_L=args.c)
+    scene = Scene(c_over_L=args.c, elements=args.elements)
     dyn = Dynamics(damping=args.damping, dt=args.dt, force_tol=args.force_tol)
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
 
-    print("knitfem: continuation ...", flush=True)
-    kf, x_kf = knitfem_popup(scene)
+    print(f"knitfem: continuation at {scene.elements} elements ...", flush=True)
+    kf, x_kf = knitfem_popup(scene, repeat=args.repeat)
     cold = knitfem_cold_newton(scene)
+    short = knitfem_short_rod(scene)
     print("PyElastica: warm-up (numba) ...", flush=True)
-    warm = warm_up_pyelastica(scene, dyn)
-    pe, x_pe = run_to_equilibrium(scene, dyn)
+    warm = warm_up_pyelastica(scene, dyn.for_elements(scene.elements))
+    runs = [run_to_equilibrium(scene, dyn.for_elements(scene.elements))
+            for _ in range(args.repeat)]
+    pe, x_pe = runs[-1]
+    pe["wall_runs_s"] = [r[0]["wall_s"] for r in runs]
+    pe["wall_s"] = float(np.median(pe["wall_runs_s"]))
     pe["warm_up_s"] = warm
     cmp_, x_kf_cmp = compare(scene, x_kf, x_pe)
 
     out = {"scene": asdict(scene), "dynamics": asdict(dyn), "versions": versions(),
-           "knitfem": kf, "knitfem_cold_newton": cold, "pyelastica": pe, "comparison": cmp_,
-           "centrelines_mm": {"knitfem": x_kf.tolist(), "pyelastica": x_pe.tolist()}}
+           "knitfem": kf, "knitfem_cold_newton": cold, "knitfem_short_rod": short,
+           "pyelastica": pe, "comparison": cmp_}
+    x_fine = None
+    if args.refine:
+        print(f"refinement: {args.refine} elements ...", flush=True)
+        out["refinement"], x_fine = refinement(scene, dyn, args.refine)
+        rows = [{"elements": scene.elements,
+                 "knitfem_max_abs_z_over_L": kf["max_abs_z_over_L"],
+                 "pyelastica_max_abs_z_over_L": pe["max_abs_z_over_L"]}] + out["refinement"]
+        out["extrapolated"] = {
+            "knitfem": extrapolate(rows, "knitfem_max_abs_z_over_L", order=2),
+            "pyelastica": extrapolate(rows, "pyelastica_max_abs_z_over_L", order=1)}
+        x_fine = x_fine * np.array([1.0, 1.0, np.sign(x_fine[x_fine.shape[0] // 2, 2])
+                                    * cmp_["pyelastica_mid_z_sign"]])
+    out["centrelines_mm"] = {"knitfem": x_kf.tolist(), "pyelastica": x_pe.tolist()}
+
     (out_dir / "bench_pyelastica.json").write_text(json.dumps(out, indent=1))
-    plot(out_dir / "bench_pyelastica.png", scene, x_kf_cmp, x_pe)
+    plot(out_dir / "bench_pyelastica.png", scene, x_kf_cmp, x_pe, x_fine,
+         args.refine[-1] if args.refine else None)
     md = table(out)
     (out_dir / "bench_pyelastica.md").write_text(md + "\n")
     print()
