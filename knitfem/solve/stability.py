@@ -20,18 +20,6 @@ def _dense(S):
     return S.toarray() if sparse.issparse(S) else np.asarray(S)
 
 
-def eigenvalues_near_zero(K, k=1):
-    """The k eigenvalues of sym(K) of smallest magnitude, sorted ascending
-    (dense below DENSE_LIMIT unknowns, shift-invert Lanczos about 0 above)."""
-    S = symmetric_part(K)
-    if S.shape[0] <= DENSE_LIMIT:
-        vals = np.linalg.eigvalsh(_dense(S))
-        return np.sort(vals[np.argsort(np.abs(vals))[:k]])
-    vals = splinalg.eigsh(sparse.csc_matrix(S), k=k, sigma=0.0, which="LM",
-                          return_eigenvectors=False)
-    return np.sort(vals)
-
-
 def lowest_eigenvalues(K, k=1):
     """The k algebraically smallest eigenvalues of sym(K), ascending: the first
     one changes sign where an equilibrium loses stability.  Dense below
