@@ -13,14 +13,21 @@ W_OVER_L = 28.4 / 105.0          # the paper's rod: w = 28.4 mm, L = 105 mm
 
 
 def _popup(args):
-    from .scenes.popup_output import write_popup
+    from .scenes import popup_output
     from .scenes.srod import SRod, popup
     srod = SRod(length=args.length, w=args.w_over_L * args.length, diameter=args.diameter,
                 poisson=args.poisson, gj_over_ei=args.gj_over_ei, elements=args.elements)
-    result = popup(srod, args.c_from, args.c_to, args.c_step)
+    if args.model == "bspline":
+        from .scenes.srod_bspline import bspline_popup
+        result = bspline_popup(srod, args.c_from, args.c_to, args.c_step, segments=args.elements,
+                               method=args.relax)
+        write = popup_output.write_bspline_popup
+    else:
+        result = popup(srod, args.c_from, args.c_to, args.c_step)
+        write = popup_output.write_popup
     summary = result.summary()
     if args.out:
-        write_popup(result, args.out, render=not args.no_render)
+        write(result, args.out, render=not args.no_render)
     text = json.dumps(summary, indent=2)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
@@ -55,7 +62,13 @@ def build_parser():
     p.add_argument("--c-from", type=float, default=0.95, help="first c/L (default 0.95)")
     p.add_argument("--c-to", type=float, default=0.45, help="last c/L (default 0.45)")
     p.add_argument("--c-step", type=float, default=0.05, help="sampling of the output (0.05)")
-    p.add_argument("--elements", type=int, default=60, help="beam elements (default 60)")
+    p.add_argument("--model", choices=("beam", "bspline"), default="beam",
+                   help="beam: Simo-Reissner rod + continuation (default); bspline: the "
+                   "independent yarn-level model (no twist energy), relaxed point by point")
+    p.add_argument("--elements", type=int, default=None,
+                   help="beam elements (default 60) or B-spline segments (default 32)")
+    p.add_argument("--relax", choices=("static", "dynamic"), default="static",
+                   help="bspline model: L-BFGS (static, default) or dynamic relaxation")
     stiff = p.add_mutually_exclusive_group()
     stiff.add_argument("--poisson", type=float, default=0.5,
                        help="Poisson ratio, GJ/EI = 1/(1+nu) (default 0.5)")
@@ -78,14 +91,17 @@ def build_parser():
 
 def main(argv=None):
     from .solve import NewtonError
+    from .bspline import RelaxationError
     from .solve.continuation import ContinuationError
     args = build_parser().parse_args(argv)
+    if getattr(args, "elements", 0) is None:
+        args.elements = 32 if args.model == "bspline" else 60
     try:
         return args.run(args)
     except ValueError as err:        # bad input: a message, not a traceback
         print(f"knitfem {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except (NewtonError, ContinuationError) as err:
+    except (NewtonError, ContinuationError, RelaxationError) as err:
         print(f"knitfem {args.command}: the solver failed: {err}", file=sys.stderr)
         return 3
 

@@ -93,3 +93,19 @@ def test_bad_scene_parameters_are_refused(kwargs, match):
 def test_impossible_clamp_geometry_is_refused(c_from, c_to, match):
     with pytest.raises(ValueError, match=match):
         popup(SRod(elements=8), c_from=c_from, c_to=c_to)
+
+
+def test_bspline_model_agrees_with_the_beam_without_torsional_stiffness():
+    """Cross-check of two independent models (issue 4): the B-spline yarn model
+    has no twist energy, so it is compared with the beam at GJ/EI = 1e-3:
+    max|z|/L at c/L = 0.7, 0.6, 0.5 within 0.02, critical c/L within 0.01."""
+    from knitfem.scenes.srod_bspline import bspline_popup
+    beam = popup(SRod(gj_over_ei=1e-3), c_from=0.8, c_to=0.5, c_step=0.1)
+    yarn = bspline_popup(SRod(), c_from=0.8, c_to=0.5, c_step=0.1, segments=32)
+    z_beam = {round(s.c_over_L, 2): s.max_abs_z_over_L for s in beam.samples}
+    z_yarn = {round(s.c_over_L, 2): s.max_abs_z_over_L for s in yarn.samples}
+    for c in (0.7, 0.6, 0.5):
+        assert abs(z_beam[c] - z_yarn[c]) < 0.02, (c, z_beam[c], z_yarn[c])
+    assert abs(beam.critical_c_over_L - yarn.critical_c_over_L) < 0.01
+    lo, hi = yarn.critical_bracket
+    assert hi - lo <= 2e-3 and z_yarn[0.8] < 1e-4

@@ -34,12 +34,31 @@ def beam_mesh(model, state, **extra_point_data):
                        point_data=point_data, cell_data=cell_data)
 
 
-def write_beam_state(path, model, state, **extra_point_data):
-    """Write one state to ``path`` (.vtu); returns the path."""
+def curve_mesh(curves, point_data=None, cell_data=None):
+    """meshio.Mesh of polylines: ``curves`` a list of (n_k, 3) arrays, one line
+    cell per consecutive pair; point_data/cell_data: name -> list of per-curve
+    arrays (n_k, ...) / (n_k - 1, ...)."""
+    points = np.concatenate(curves)
+    start = np.concatenate([[0], np.cumsum([len(c) for c in curves])])
+    cells = np.concatenate([np.stack([np.arange(a, b - 1), np.arange(a + 1, b)], axis=1)
+                            for a, b in zip(start[:-1], start[1:])])
+    pdata = {k: np.concatenate(v) for k, v in (point_data or {}).items()}
+    cdata = {k: [np.concatenate(v)] for k, v in (cell_data or {}).items()}
+    return meshio.Mesh(points, [("line", cells.astype(np.int64))], point_data=pdata,
+                       cell_data=cdata)
+
+
+def write_mesh(path, mesh):
+    """Write a meshio mesh, creating the folder; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    beam_mesh(model, state, **extra_point_data).write(path)
+    mesh.write(path)
     return path
+
+
+def write_beam_state(path, model, state, **extra_point_data):
+    """Write one state to ``path`` (.vtu); returns the path."""
+    return write_mesh(path, beam_mesh(model, state, **extra_point_data))
 
 
 def write_series(path, files, times):

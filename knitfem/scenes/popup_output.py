@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import beam_mesh, write_beam_state, write_series
+from ..io import beam_mesh, curve_mesh, write_beam_state, write_mesh, write_series
 from .srod import max_abs_z
 
 
@@ -79,17 +79,22 @@ def plot_height(result, path, marks=None, title=None):
     return path
 
 
+def _write_samples(samples, path):
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["c_over_L", "max_abs_z_over_L", "stable", "negative_eigenvalues"])
+        for s in samples:
+            w.writerow([f"{s.c_over_L:.6f}", f"{s.max_abs_z_over_L:.8f}", s.stable,
+                        getattr(s, "negative", "")])
+
+
 def write_popup(result, out, *, render=True, marks=None, view_c=0.6):
     """Write the files listed in the module docstring into ``out``; returns the
     summary dict (also written as ``popup.json``)."""
     out = Path(out)
     (out / "shapes").mkdir(parents=True, exist_ok=True)
     summary = result.summary()
-    with open(out / "branch.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["c_over_L", "max_abs_z_over_L", "stable", "negative_eigenvalues"])
-        for s in result.samples:
-            w.writerow([f"{s.c_over_L:.6f}", f"{s.max_abs_z_over_L:.8f}", s.stable, s.negative])
+    _write_samples(result.samples, out / "branch.csv")
     rows = list(branch_rows(result))
     with open(out / "branches.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -140,3 +145,52 @@ def plot_heat_map(hm, path, title=None):
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path
+
+
+def yarn_mesh(model, q):
+    """Centrelines of a B-spline yarn model as a line mesh (tangent, curvature)."""
+    lines = model.centrelines(q)
+    return curve_mesh([r for r, _, _ in lines], {"tangent": [t for _, t, _ in lines],
+                                                 "curvature": [k for _, _, k in lines]})
+
+
+def write_bspline_popup(result, out, *, render=True, marks=None, view_c=0.6):
+    """The B-spline model's pop-up files: branch.csv, popup.json, shapes/*.vtu
+    (+ .pvd), popup_z.png (samples and the critical bracket) and a render."""
+    out = Path(out)
+    (out / "shapes").mkdir(parents=True, exist_ok=True)
+    summary = result.summary()
+    _write_samples(result.samples, out / "branch.csv")
+    files = [write_mesh(out / "shapes" / f"popup_c{s.c_over_L:.4f}.vtu", yarn_mesh(result.model,
+                                                                               s.control))
+             for s in result.samples]
+    write_series(out / "shapes" / "popup.pvd", files, [s.c_over_L for s in result.samples])
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    c = [s.c_over_L for s in result.samples]
+    ax.plot(c, [s.max_abs_z_over_L for s in result.samples], "ko-", ms=4,
+            label=f"B-spline model, {result.segments} segments ({result.method} relaxation)")
+    if result.critical_c_over_L is not None:
+        ax.axvspan(*result.critical_bracket, color="C3", alpha=0.3)
+        ax.axvline(result.critical_c_over_L, color="C3", lw=0.8, ls=":",
+                   label=f"$c_{{crit}}/L$ = {result.critical_c_over_L:.4f}")
+    for m in marks if marks is not None else []:
+        ax.axvline(m, color="0.85", lw=0.6, zorder=0)
+    ax.invert_xaxis()
+    ax.set_xlabel("c / L")
+    ax.set_ylabel("max |z| / L")
+    ax.set_title(f"S-rod pop-up, yarn-level B-spline model, w/L = "
+                 f"{result.srod.w / result.srod.length:.3f} (no twist energy)")
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(out / "popup_z.png", dpi=130)
+    plt.close(fig)
+    if render:
+        near = min(result.samples, key=lambda s: abs(s.c_over_L - view_c))
+        if near.max_abs_z_over_L > 0:
+            from ..viz.render import render_rods
+            render_rods(out / f"popup_c{near.c_over_L:.2f}.png", yarn_mesh(result.model, near.control),
+                        radius=0.5 * result.srod.diameter, view=(0.0, -1.0, 0.0), zoom=1.5,
+                        title=f"c/L = {near.c_over_L:.2f}: B-spline yarn seen along y")
+    (out / "popup.json").write_text(json.dumps(summary, indent=2))
+    return summary

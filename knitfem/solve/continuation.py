@@ -230,11 +230,19 @@ class Continuation:
 
     def land(self, a, bound):
         """The branch point at lam = bound next to a: predictor along a's tangent
-        to the bound, then Newton at fixed lam (stays on this branch)."""
-        sigma = (bound - a.lam) / a.tl
-        guess = self.problem.retract(a.state, sigma * a.tx, bound)
-        end = self.solve_at(guess, bound)
-        return self.point(end.state, bound, a.tx, a.tl, a.s + abs(sigma), end.iterations)
+        to the bound, then Newton at fixed lam.  If Newton fails from there, walk
+        half the way along the branch (pseudo-arclength) and try again."""
+        for _ in range(20):
+            sigma = (bound - a.lam) / a.tl
+            guess = self.problem.retract(a.state, sigma * a.tx, bound)
+            try:
+                end = self.solve_at(guess, bound)
+            except NewtonError:
+                a = self.step(a, 0.5 * sigma)
+                continue
+            return self.point(end.state, bound, a.tx, a.tl, a.s + abs(sigma), end.iterations)
+        raise NewtonError("max_iterations", f"could not land on lam = {bound:.8g} from the "
+                          f"branch point at lam = {a.lam:.8g}", a.state, [])
 
     def start(self, x0, lam0, direction=1.0, tangent=None):
         """First point: converge at lam0; tangent along ``direction`` in lam,

@@ -1,0 +1,10 @@
+"""Independent yarn-level model (Kaldor et al. 2008): B-spline centrelines,
+stretching, bending and contact energies, dynamic relaxation.  Shares no
+mechanics code with the beam model: only geometry input and output formats."""
+from . import curve
+from .contact import ContactLaw
+from .model import BSplineModel, Yarn
+from .relax import RelaxationError, relax_dynamic, relax_static
+
+__all__ = ["curve", "BSplineModel", "ContactLaw", "RelaxationError", "Yarn", "relax_dynamic",
+           "relax_static"]

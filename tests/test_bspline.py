@@ -1,0 +1,116 @@
+"""The B-spline yarn model: exact gradients, rest states, analytic stretching,
+contact law, clamps, and the cross-check with the beam model on the S-rod."""
+import numpy as np
+import pytest
+
+from knitfem.bspline import (BSplineModel, ContactLaw, RelaxationError, Yarn, curve,
+                             relax_dynamic, relax_static)
+from knitfem.bspline.contact import candidate_pairs, contact_energy
+
+
+def straight_yarn(length=10.0, segments=8, EA=100.0, EI=1.0, **kw):
+    pts = np.stack([np.linspace(0, length, 200), np.zeros(200), np.zeros(200)], axis=1)
+    return Yarn.through(pts, segments, EA, EI, natural="straight", length=length, **kw)
+
+
+def test_gradient_matches_central_differences_with_contact_and_gravity(rng):
+    s = np.linspace(0, 4 * np.pi, 300)
+    helix = np.stack([np.cos(s), np.sin(s), 0.3 * s], axis=1)       # pitch 1.9 < 2 * 2r
+    yarns = [Yarn.through(helix, 24, 50.0, 2.0, radius=0.5),
+             Yarn.through(helix + [0.4, 0.0, 0.1], 20, 40.0, 1.0, radius=0.5)]
+    model = BSplineModel(yarns, contact=ContactLaw(3.0, 0.5), gravity=(0, 0, -1.0))
+    q = model._initial() + 0.05 * rng.normal(size=(model.n, 3))
+    E, g, _ = model.energy(q)
+    pts, w, yarn, sl = model.samples(q)
+    assert len(candidate_pairs(pts, yarn, sl, model.contact)) > 0   # contact is active
+    for _ in range(3):
+        v = rng.normal(size=q.shape)
+        e = 1e-6
+        fd = (model.energy(q + e * v)[0] - model.energy(q - e * v)[0]) / (2 * e)
+        assert abs(fd - np.sum(g * v)) < 1e-6 * max(1.0, abs(fd))
+
+
+def test_straight_unloaded_yarn_stays_at_rest():
+    model = BSplineModel([straight_yarn()])
+    model.clamp(0, "start")
+    y0 = model.reduce(model.yarns[0].control)
+    result = relax_dynamic(model, y0, rtol=1e-5)       # |g| ~ 1e-12: round-off only
+    assert result.iterations <= 20 and np.allclose(result.y, y0, atol=1e-12)
+    E, g, _ = model.reduced_energy(y0)
+    assert abs(E) < 1e-20 and np.linalg.norm(g) < 1e-10 * 100.0        # EA = 100
+
+
+@pytest.mark.parametrize("relax", [relax_static, relax_dynamic])
+def test_pure_stretching_gives_the_analytic_axial_force(relax):
+    """Clamped at both ends 10 % apart beyond the rest length: uniform strain
+    0.1 and clamp force EA * 0.1 (to 1e-6 relative)."""
+    L0, EA = 10.0, 100.0
+    model = BSplineModel([straight_yarn(L0, 8, EA)])
+    model.clamp(0, "start", (0, 0, 0), (1, 0, 0))
+    model.clamp(0, "end", (1.1 * L0, 0, 0), (1, 0, 0))
+    q0 = model.yarns[0].control * [1.1, 1, 1]
+    result = relax(model, model.reduce(q0), rtol=1e-9 if relax is relax_dynamic else 1e-7)
+    q = model.control_points(result.y)
+    a, _ = curve.evaluate(q, model.quad.u, derivative=1), None
+    assert np.allclose(np.linalg.norm(a, axis=2) / model.rest[:, None], 1.1, atol=1e-6)
+    e = 1e-5                                 # clamp force = dE/d(end position)
+    energies = []
+    for shift in (e, -e):
+        model.move_clamp(1, position=(1.1 * L0 + shift, 0, 0))
+        energies.append(model.reduced_energy(relax_static(model, result.y, rtol=1e-7).y)[0])
+    assert abs((energies[0] - energies[1]) / (2 * e) / (EA * 0.1) - 1) < 1e-4
+
+
+def test_contact_is_zero_beyond_2r_and_repulsive_below():
+    law = ContactLaw(stiffness=2.0, radius=0.5)
+    pts = np.array([[0.0, 0, 0], [0.0, 0, 1.2], [0.0, 0, 0.9]])
+    w = np.ones(3)
+    E, g, n = contact_energy(pts, w, np.array([[0, 1]]), law)    # d = 1.2 > 2r
+    assert E == 0 and n == 0 and not g.any()
+    E, g, n = contact_energy(pts, w, np.array([[0, 2]]), law)    # d = 0.9 < 2r
+    x = 0.9
+    assert n == 1 and np.isclose(E, 2.0 * (1 / x**2 - 2 + x**2))
+    assert g[0, 2] > 0 and g[2, 2] < 0                          # -grad pushes them apart
+    E1, *_ = contact_energy(pts * [1, 1, 0.99999], w, np.array([[0, 1]]), law)
+    assert E1 == 0                                              # C1 at first touch: f(1) = f'(1) = 0
+
+
+def test_clamp_holds_position_and_tangent_exactly_and_leaves_curvature_free(rng):
+    model = BSplineModel([straight_yarn()])
+    model.clamp(0, "start", (1.0, 2.0, 3.0), (0, 1, 0))
+    model.clamp(0, "end", (4.0, 8.0, 3.0), (1, 0, 0))
+    q = model.control_points(rng.normal(size=model.reduction()[0].shape[1]))
+    r0 = curve.evaluate(q, np.array([0.0]))[0, 0]
+    t0 = curve.evaluate(q, np.array([0.0]), derivative=1)[0, 0]
+    r1 = curve.evaluate(q, np.array([1.0]))[-1, 0]
+    t1 = curve.evaluate(q, np.array([1.0]), derivative=1)[-1, 0]
+    assert np.allclose(r0, [1, 2, 3]) and np.allclose(r1, [4, 8, 3])
+    assert np.allclose(np.cross(t0, [0, 1, 0]), 0) and np.allclose(np.cross(t1, [1, 0, 0]), 0)
+    k0 = curve.evaluate(q, np.array([0.0]), derivative=2)[0, 0]
+    assert np.linalg.norm(k0) > 1e-3                            # curvature is not forced to 0
+
+
+def test_relaxation_failure_keeps_the_last_state():
+    model = BSplineModel([straight_yarn()])
+    model.clamp(0, "start")
+    q = model.yarns[0].control.copy()
+    q[:, 1] += 0.5 * np.sin(np.linspace(0, np.pi, q.shape[0]))
+    with pytest.raises(RelaxationError, match="did not reach relative residual") as err:
+        relax_dynamic(model, model.reduce(q), rtol=1e-12, max_steps=50)
+    assert err.value.y.shape == model.reduce(q).shape and len(err.value.history) > 0
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(EA=-1.0), r"EA must be finite and in \(0, inf\)"),
+    (dict(EI=float("nan")), r"EI must be finite"),
+])
+def test_bad_yarn_input_is_refused(kwargs, match):
+    args = dict(EA=1.0, EI=1.0)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        straight_yarn(**args)
+
+
+def test_bad_contact_parameters_are_refused():
+    with pytest.raises(ValueError, match=r"contact radius must be finite and in \(0, inf\)"):
+        ContactLaw(1.0, -0.5)
