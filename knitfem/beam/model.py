@@ -19,10 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..solve.newton import linear_solve
 from ..solve.stepping import load_stepping
+from ..contact import DEFAULT_FACTOR, DEFAULT_REGULARISATION
 from .assembly import DOFS_PER_NODE, RodAssembly
 from .rod import Rod
+from .yarn_contact import BeamContact, default_law
 from .rotation import (quat_conjugate, quat_multiply, rotate_spatially, rotation_from_vector,
                        rotation_matrix, rotation_vector)
 
@@ -75,6 +76,7 @@ class BeamModel:
         self._gravity = None
         self._plane = None
         self._assembly = None
+        self._contact = None
         for r in rods:
             self.add_rod(r)
 
@@ -198,6 +200,35 @@ class BeamModel:
         """Nodal moment (3,) about fixed global axes at lam = 1."""
         self._nodal.append((self.node(rod, at), np.r_[np.zeros(3), _vector("moment", M)]))
 
+    def contact(self, law=None, *, factor=DEFAULT_FACTOR, regularisation=DEFAULT_REGULARISATION,
+                exclude=None, per_diameter=6):
+        """Switch on penalty contact among all rods (self-contact included).
+
+        law : a :class:`knitfem.contact.PenaltyLaw`, default k = factor EI/r^4
+        of the softest rod, g0 = regularisation (r_a + r_b).  exclude : arclength
+        below which elements of one rod are neighbours (default 4 r).
+        """
+        self._contact = (law, factor, regularisation, exclude, per_diameter)
+        self._contact_model = None
+
+    @property
+    def contact_model(self):
+        """The :class:`BeamContact` (None without contact)."""
+        if self._contact is None:
+            return None
+        if getattr(self, "_contact_model", None) is None:
+            law, factor, regularisation, exclude, per_diameter = self._contact
+            law = default_law(self.rods, factor, regularisation) if law is None else law
+            self._contact_model = BeamContact(self.assembly, law, exclude, per_diameter)
+        return self._contact_model
+
+    def contact_report(self, state):
+        """Active pairs, min gap, max penetration, total normal force at ``state``."""
+        if self.contact_model is None:
+            return None
+        self.contact_model.forces(state.x, tangent=False)
+        return self.contact_model.report
+
     def gravity(self, g):
         """Gravity acceleration (3,) acting on each rod's ``section.line_density``."""
         self._gravity = _vector("gravity", g)
@@ -295,10 +326,18 @@ class BeamModel:
         return BeamState(state.x + factor * (state.x - previous.x),
                          rotate_spatially(state.q, factor * theta))
 
-    def internal_forces(self, state, tangent=True, free=None):
+    def internal_forces(self, state, tangent=True, free=None, direction=None):
         """Energy, internal forces (n_dofs,) and tangent (CSR; restricted to the
-        ``free`` dofs if that mask is given) of a state."""
-        return self.assembly.forces(state.x, state.q, tangent, free)
+        ``free`` dofs if that mask is given) of a state, contact included; with
+        ``direction`` also K @ direction (all dofs) as a fourth value."""
+        out = self.assembly.forces(state.x, state.q, tangent, free, direction)
+        if self.contact_model is None:
+            return out
+        Ec, fc, Kc, Kvc = self.contact_model.forces(state.x, tangent, free, direction)
+        energy, f, K = out[0] + Ec, out[1] + fc, (out[2] + Kc if tangent else None)
+        if direction is None:
+            return energy, f, K
+        return energy, f, K, out[3] + Kvc
 
     def reactions(self, state, lam):
         """Support reactions (n_dofs,), zero on free dofs: f_int - lam f_ext."""
@@ -312,6 +351,7 @@ class BeamModel:
 
     def static_problem(self, lam, relax_positions=True):
         """Newton problem (see :mod:`knitfem.solve.newton`) at load factor lam."""
+        from .static import StaticProblem
         return StaticProblem(self, lam, relax_positions)
 
     def solve(self, loads=(1.0,), state=None, start=0.0, relax_positions=True,
@@ -323,70 +363,8 @@ class BeamModel:
         :meth:`StaticProblem.relax_positions`)."""
         self.check()
         state = self.initial_state() if state is None else state
+        # contact makes the residual jump when yarns meet: a residual line search
+        # keeps Newton from overshooting into (or through) the other yarn
+        newton_options.setdefault("line_search", self._contact is not None)
         return load_stepping(lambda lam: self.static_problem(lam, relax_positions), state,
                              list(loads), start=start, **newton_options)
-
-
-class StaticProblem:
-    """The model's equilibrium at fixed lam, on the free dofs, for Newton.
-
-    Its norm divides moments by the model length scale so forces and moments
-    enter |r| in one unit; the relative residual is |r| over the size of the
-    internal forces including support reactions (or of the loads, if larger).
-    """
-
-    def __init__(self, model, lam, relax_positions=True):
-        self.model = model
-        self.lam = float(lam)
-        self.free = ~model.fixed
-        self.relax = relax_positions
-        rotational = np.tile([False, False, False, True, True, True], model.assembly.n_nodes)
-        self.translations = self.free & ~rotational
-        self.weight = np.where(rotational, 1.0 / model.length_scale(), 1.0)
-        self.f_ext = model.external_forces()
-
-    def start(self, state):
-        return self.relax_positions(self.model.apply_supports(state, self.lam))
-
-    def relax_positions(self, state):
-        """Positions in equilibrium for the current frames: with the frames fixed
-        the energy is quadratic in the positions, so one linear solve of the
-        translational block gives them exactly.  Stiff axial and shear strains
-        then never dominate the residual, and Newton is left with the soft
-        bending and twisting problem (3 iterations instead of 8-12 per load
-        step for slender rods).  Near a solution this keeps Newton quadratic."""
-        if not self.relax or not np.any(self.translations):
-            return state
-        _, f, K = self.model.internal_forces(state, True, self.translations)
-        r = (f - self.lam * self.f_ext)[self.translations]
-        du = np.zeros(self.free.shape[0])
-        try:
-            du[self.translations] = -linear_solve(K, r)
-        except (RuntimeError, np.linalg.LinAlgError):
-            return state          # singular translational block: let Newton report it
-        return self.model.retract(state, du)
-
-    def norm(self, r_free):
-        return float(np.linalg.norm(r_free * self.weight[self.free]))
-
-    def noise(self, state):
-        """Round-off level of |r| (see RodAssembly.force_noise): stiff, finely
-        meshed rods under small loads cannot get below it."""
-        return self.model.assembly.force_noise(state.x)
-
-    def evaluate(self, state, jacobian=True):
-        _, f, J = self.model.internal_forces(state, jacobian, self.free)
-        r = f - self.lam * self.f_ext
-        ref = max(np.linalg.norm(f * self.weight),
-                  np.linalg.norm(self.lam * self.f_ext * self.weight), 1e-300)
-        return r[self.free], J, ref
-
-    def retract(self, state, du_free):
-        du = np.zeros(self.free.shape[0])
-        du[self.free] = du_free
-        return self.relax_positions(self.model.retract(state, du))
-
-    def extrapolate(self, previous, state, factor):
-        """Secant predictor: repeat the last increment (positions linearly,
-        rotations along their geodesics) ``factor`` times."""
-        return self.model.extrapolate(previous, state, factor)

@@ -39,10 +39,10 @@ class ParametricProblem:
 
     def evaluate(self, state, lam, jacobian=True):
         if jacobian:
-            _, f, J, Kv = self.model.assembly.forces(state.x, state.q, True, self.free,
+            _, f, J, Kv = self.model.internal_forces(state, True, self.free,
                                                      self.model.support_velocity(lam))
         else:
-            _, f, J = self.model.assembly.forces(state.x, state.q, False)
+            _, f, J = self.model.internal_forces(state, False)
         R = f - lam * self.f_ext
         ref = max(np.linalg.norm(f * self.scale), np.linalg.norm(lam * self.f_ext * self.scale),
                   1e-300)
@@ -59,7 +59,10 @@ class ParametricProblem:
         return float(np.linalg.norm(r_free * self.scale[self.free]))
 
     def noise(self, state):
-        return self.model.assembly.force_noise(state.x)
+        noise = self.model.assembly.force_noise(state.x)
+        if self.model.contact_model is not None:
+            noise = np.hypot(noise, self.model.contact_model.noise(state.x))
+        return noise
 
     def full(self, v_free):
         """A free-dof vector (e.g. a null vector) as (n_nodes, 6)."""

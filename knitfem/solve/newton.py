@@ -24,6 +24,10 @@ from scipy import sparse
 from scipy.sparse import linalg as splinalg
 
 
+NOISE_CEILING = 1e-4   # accept a round-off-limited residual only below this fraction of ref
+STAGNATION = 10.0      # a line search that stalls within this factor of the noise has converged
+
+
 class NewtonError(RuntimeError):
     """Newton failed.  ``reason`` is one of 'max_iterations', 'nonfinite',
     'singular', 'line_search'; ``state`` is the last iterate, ``history`` the
@@ -81,6 +85,8 @@ def newton(problem, x0, *, rtol=1e-10, atol=0.0, max_iter=25, line_search=False,
                               f"{it} (diverged or invalid state)", x, history)
         history.append(norm / ref)
         noise = noise_of(x)
+        if noise > NOISE_CEILING * ref:
+            noise = 0.0        # round-off that large means the state is garbage, not converged
         if norm <= max(rtol * ref, noise) + atol:
             return NewtonResult(x, it, history, roundoff_limited=rtol * ref < noise)
         if it == max_iter:
@@ -101,6 +107,9 @@ def newton(problem, x0, *, rtol=1e-10, atol=0.0, max_iter=25, line_search=False,
             cuts = 0
             while not (norm_of(r_try) <= (1.0 - 1e-4 * alpha) * norm):
                 cuts += 1
+                if cuts > max_cuts and norm <= STAGNATION * noise:
+                    # no descent left at the round-off floor: that is convergence
+                    return NewtonResult(x, it, history, roundoff_limited=True)
                 if cuts > max_cuts:
                     raise NewtonError("line_search", f"Newton{at}: line search found no "
                                       f"decrease of |r| = {norm:.3e} along the Newton step at "

@@ -1,0 +1,86 @@
+"""Penalty yarn-yarn contact between centreline segments (knows segments, not beams).
+
+``SegmentContact`` runs the broad phase (cKDTree), the Gauss-point-to-segment
+narrow phase and the penalty law, and returns per-pair 12-vectors and 12 x 12
+consistent tangents in the slots of the pair's segment ends; a model scatters
+them into its own unknowns.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .broad import brute_force_pairs, candidate_pairs
+from .law import DEFAULT_FACTOR, DEFAULT_REGULARISATION, PenaltyLaw
+from .narrow import pair_forces
+
+__all__ = ["ContactReport", "PenaltyLaw", "SegmentContact", "brute_force_pairs",
+           "candidate_pairs", "pair_forces", "DEFAULT_FACTOR", "DEFAULT_REGULARISATION"]
+
+
+@dataclass
+class ContactReport:
+    """After a solve: candidate and active pairs, the smallest gap (negative =
+    penetration), the largest penetration as a fraction of the summed radii,
+    the total normal force."""
+    candidates: int
+    active_pairs: int
+    min_gap: float
+    max_penetration: float
+    max_penetration_ratio: float
+    total_normal_force: float
+
+
+def slave_rank(rod, length=None):
+    """Slave priority of every segment: yarns ordered by mean element length
+    (finer first), then by id; all segments of a yarn share its rank."""
+    rods = np.unique(rod)
+    mean = np.array([0.0 if length is None else np.mean(length[rod == r]) for r in rods])
+    order = np.lexsort((rods, mean))
+    rank_of = np.empty(len(rods), np.int64)
+    rank_of[order] = np.arange(len(rods))
+    return rank_of[np.searchsorted(rods, rod)]
+
+
+class SegmentContact:
+    """Contact among segments (x0[i], x1[i]) of radius radius[i] on rods rod[i],
+    whose midpoints sit at arclength s_mid[i] along their rod.
+
+    exclude : arclength below which segments of one rod are neighbours (default
+    twice the largest diameter).  per_diameter : Gauss points per yarn diameter.
+    """
+
+    def __init__(self, law, radius, rod, s_mid, exclude=None, per_diameter=6):
+        if not isinstance(law, PenaltyLaw):
+            raise ValueError("law must be a knitfem.contact.PenaltyLaw")
+        self.law = law
+        self.radius = np.asarray(radius, dtype=float)
+        if not np.all(np.isfinite(self.radius) & (self.radius > 0)):
+            raise ValueError("segment radii must be finite and in (0, inf) (a rod section "
+                             "needs a radius for contact)")
+        self.rod = np.asarray(rod)
+        self.s_mid = np.asarray(s_mid, dtype=float)
+        self.rank = slave_rank(self.rod, length=None)
+        self.exclude = 4.0 * self.radius.max() if exclude is None else float(exclude)
+        self.per_diameter = float(per_diameter)
+        self._ranked_by = None
+
+    def evaluate(self, x0, x1, tangent=True, length=None):
+        """(energy, pairs (m, 2), per-pair gradients (m, 12), Hessians or None,
+        ContactReport)."""
+        if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(x1))):
+            raise ValueError("segment ends contain NaN or infinite values")
+        pairs = candidate_pairs(x0, x1, self.radius, self.rod, self.s_mid, self.law.g0,
+                                self.exclude)
+        if pairs.shape[0] == 0:
+            return 0.0, pairs, np.zeros((0, 12)), (np.zeros((0, 12, 12)) if tangent else None), \
+                ContactReport(0, 0, np.inf, 0.0, 0.0, 0.0)
+        if length is not None and self._ranked_by is not length:
+            self.rank, self._ranked_by = slave_rank(self.rod, length), length
+        energy, grads, hess, stats = pair_forces(x0, x1, self.radius, pairs, self.law,
+                                                 self.per_diameter, 4, tangent, length, self.rank)
+        active = int(np.count_nonzero(np.any(grads != 0.0, axis=1)))
+        penetration = max(0.0, -stats[0])
+        R = 2.0 * self.radius.max()
+        return energy, pairs, grads, hess, ContactReport(
+            int(pairs.shape[0]), active, float(stats[0]), penetration, penetration / R,
+            float(stats[2]))

@@ -1,0 +1,200 @@
+"""Narrow phase: Gauss-point-to-segment (line-to-line) contact of segment pairs.
+
+Why not closest points between segments: yarns in a knit lie nearly parallel
+over long stretches, where the closest-point pair of two segments jumps and
+a single point force cannot carry a distributed load (Meier, Popp & Wall
+2016).  Here every Gauss point p of segment A is projected on segment B,
+
+    eta = clamp((p - b0)·e / |e|^2, 0, 1),  u = p - b0 - eta e,  e = b1 - b0,
+    g = |u| - (r_a + r_b),   energy  sum_gauss  w l_A phi(g),
+
+where A is the slave of the pair and B, among A's candidate masters, the
+segment of smallest gap from p (so a point facing the joint of two master
+segments is not counted twice).  Slaves are chosen per yarn (the yarn with
+the finer elements, as the non-mortar side of a mortar method), so each
+contact is counted once; a uniform pressure gives exactly uniform nodal
+forces on the slave.  Crossing yarns are covered too, by the Gauss points near the
+crossing: the number of points per segment grows with its length so that
+every yarn diameter holds ``per_diameter`` of them, which resolves the short
+contact zone of a crossing.  With F = |u|^2/2 and s = ((1-xi), xi,
+-(1-eta), -eta), the derivatives in z = (a0, a1, b0, b1) are
+
+    grad F = S^T u,   hess F = S^T S - c c^T / |e|^2   (c = S^T e + E^T u,
+                      E^T u = (0, 0, -u, u); drop the c term where eta is clamped)
+
+(the envelope theorem for the projection), chained through d = sqrt(2F) to
+phi(g): the tangent is exact, so Newton stays quadratic with contact active.
+Compiled with numba: the loop over pairs and Gauss points is the hot spot.
+"""
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _law(g, k, g0):
+    """phi, phi', phi'' of the penalty law (see law.py)."""
+    if g >= g0:
+        return 0.0, 0.0, 0.0
+    if g >= 0.0:
+        t = g0 - g
+        return k * t**3 / (6.0 * g0), -k * t * t / (2.0 * g0), k * t / g0
+    return k * (g0 * g0 / 6.0 - 0.5 * g0 * g + 0.5 * g * g), -k * (0.5 * g0 - g), k
+
+
+@njit(cache=True)
+def _project(p, b0, b1):
+    """Foot of p on segment (b0, b1): eta (clamped to [0, 1]), whether it was
+    clamped, u = p - foot, |u|."""
+    e = b1 - b0
+    eta = (p - b0) @ e / (e @ e)
+    # a foot at a segment end up to round-off counts as inside (see _all_pairs)
+    clamped = eta < -1e-9 or eta > 1.0 + 1e-9
+    eta = min(max(eta, 0.0), 1.0)
+    u = p - b0 - eta * e
+    return eta, clamped, u, np.sqrt(u @ u)
+
+
+@njit(cache=True)
+def _gauss_point(xi, a0, a1, b0, b1, R, W, k, g0, tangent, perm, grad, hess, stats, s, c, dF):
+    """Energy of the Gauss point at xi on A against segment B, weight W; adds
+    its gradient / tangent into the pair's slots through ``perm``."""
+    p = (1.0 - xi) * a0 + xi * a1
+    eta, clamped, u, d = _project(p, b0, b1)
+    g = d - R
+    if g >= g0 or d < 1e-14 * R:
+        return 0.0
+    e = b1 - b0
+    L2 = e @ e
+    phi, dphi, ddphi = _law(g, k, g0)
+    stats[1] += 1.0
+    stats[2] += -W * dphi                          # normal force carried
+    s[0], s[1], s[2], s[3] = 1.0 - xi, xi, -(1.0 - eta), -eta
+    for a in range(4):
+        for j in range(3):
+            dF[3 * a + j] = s[a] * u[j]
+    for j in range(12):
+        grad[perm[j]] += W * dphi * dF[j] / d
+    if tangent:
+        for a in range(4):
+            for j in range(3):
+                c[3 * a + j] = s[a] * e[j]
+        for j in range(3):
+            c[6 + j] -= u[j]
+            c[9 + j] += u[j]
+        for i in range(12):
+            for j in range(12):
+                hF = s[i // 3] * s[j // 3] if i % 3 == j % 3 else 0.0
+                if not clamped:
+                    hF -= c[i] * c[j] / L2
+                dd = hF / d - dF[i] * dF[j] / d**3                      # hess of d
+                hess[perm[i], perm[j]] += W * (ddphi * dF[i] * dF[j] / (d * d) + dphi * dd)
+    return W * phi
+
+
+@njit(cache=True)
+def _points(length, diameter, per_diameter, least):
+    """Gauss order for a segment of this length: per_diameter points per diameter."""
+    n = int(np.ceil(per_diameter * length / diameter))
+    return min(max(n, least), MAX_ORDER)
+
+
+@njit(cache=True)
+def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least, k, g0,
+               tangent):
+    """Slave Gauss points against their master segments.  The slave of a pair
+    is the segment of lower ``rank`` (ranks are per yarn, so one yarn is the
+    slave of another everywhere and no contact is counted from both sides;
+    within one yarn the lower index), and each slave Gauss point interacts
+    with the one master of smallest gap, so a point facing the joint of two
+    master segments is not counted twice either."""
+    m = pairs.shape[0]
+    nseg = x0.shape[0]
+    energy = 0.0
+    grads = np.zeros((m, 12))
+    hess = np.zeros((m if tangent else 1, 12, 12))
+    stats = np.array([np.inf, 0.0, 0.0])            # min gap, active points, total force
+    direct = np.arange(12)
+    swapped = np.concatenate((np.arange(6, 12), np.arange(6)))
+    # masters of every slave segment (CSR): master, pair index, slave is pairs[n, 0]
+    slave_first = np.empty(m, np.bool_)
+    count = np.zeros(nseg + 1, np.int64)
+    for n in range(m):
+        i, j = pairs[n, 0], pairs[n, 1]
+        slave_first[n] = rank[i] < rank[j] or (rank[i] == rank[j] and i < j)
+        count[(i if slave_first[n] else j) + 1] += 1
+    start = np.cumsum(count)
+    fill = start[:-1].copy()
+    master = np.empty(m, np.int64)
+    index = np.empty(m, np.int64)
+    for n in range(m):
+        a, b = (pairs[n, 0], pairs[n, 1]) if slave_first[n] else (pairs[n, 1], pairs[n, 0])
+        master[fill[a]], index[fill[a]] = b, n
+        fill[a] += 1
+    s, c, dF = np.empty(4), np.empty(12), np.empty(12)
+    for A in range(nseg):
+        if start[A] == start[A + 1]:
+            continue
+        nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
+        for q in range(nq):
+            xi = XI[nq, q]
+            p = (1.0 - xi) * x0[A] + xi * x1[A]
+            # prefer masters the point projects inside: across the joint of two
+            # collinear master segments that keeps the energy C2 (the vertex
+            # distance of a clamped projection only serves kinks and yarn ends)
+            best, best_gap, best_inside = -1, np.inf, False
+            for t in range(start[A], start[A + 1]):
+                B = master[t]
+                _, clamped, _, d = _project(p, x0[B], x1[B])
+                gap = d - radius[A] - radius[B]
+                inside = not clamped
+                if (inside and not best_inside) or (inside == best_inside and gap < best_gap):
+                    best, best_gap, best_inside = t, gap, inside
+            if best_gap < stats[0]:
+                stats[0] = best_gap
+            if best_gap >= g0:
+                continue
+            B, n = master[best], index[best]
+            H = hess[n] if tangent else hess[0]
+            energy += _gauss_point(xi, x0[A], x1[A], x0[B], x1[B], radius[A] + radius[B],
+                                   WTS[nq, q] * length[A], k, g0, tangent,
+                                   direct if slave_first[n] else swapped, grads[n], H, stats,
+                                   s, c, dF)
+    return energy, grads, hess, stats
+
+
+MAX_ORDER = 48
+
+
+def _gauss_table():
+    """Row n: the n Gauss-Legendre points and weights on [0, 1]."""
+    XI = np.zeros((MAX_ORDER + 1, MAX_ORDER))
+    WTS = np.zeros((MAX_ORDER + 1, MAX_ORDER))
+    for n in range(1, MAX_ORDER + 1):
+        x, w = np.polynomial.legendre.leggauss(n)
+        XI[n, :n], WTS[n, :n] = 0.5 * (x + 1.0), 0.5 * w
+    return XI, WTS
+
+
+_XI, _WTS = _gauss_table()
+
+
+def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=True,
+                length=None, rank=None):
+    """Contact energy, per-pair gradients (m, 12) and Hessians (m, 12, 12) in
+    the slots (x0[i], x1[i], x0[j], x1[j]) of each pair (i, j), and statistics
+    (min gap, active Gauss points, total normal force).
+
+    x0, x1 : (n, 3) segment ends; radius : (n,); length : (n,) arclength each
+    segment stands for (default its chord); per_diameter, least : Gauss
+    points per yarn diameter and at least per segment (at most 48); rank :
+    (n,) slave priority (default all equal: the lower index is the slave).
+    """
+    x0 = np.ascontiguousarray(x0, dtype=float)
+    x1 = np.ascontiguousarray(x1, dtype=float)
+    length = np.linalg.norm(x1 - x0, axis=1) if length is None else np.asarray(length, float)
+    rank = np.zeros(x0.shape[0], np.int64) if rank is None else np.asarray(rank, np.int64)
+    energy, grads, hess, stats = _all_pairs(x0, x1, np.asarray(radius, float), length, rank,
+                                            np.ascontiguousarray(pairs, dtype=np.int64), _XI,
+                                            _WTS, float(per_diameter), int(least),
+                                            float(law.k), float(law.g0), bool(tangent))
+    return energy, grads, (hess if tangent else None), stats
