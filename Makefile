@@ -31,11 +31,14 @@ studies: $(STAMP) system-deps
 	$(VENV)/bin/python studies/popup_fig4a.py --out $(OUT)/popup_fig4a
 	$(VENV)/bin/python studies/popup_heatmap.py --out $(OUT)/popup_heatmap
 	$(VENV)/bin/python studies/popup_convergence.py --out $(OUT)/popup_convergence
+	$(VENV)/bin/python studies/crosscheck_popup.py --out $(OUT)/crosscheck_popup
+	$(VENV)/bin/python studies/knit_swatch.py --out $(OUT)/knit_swatch
 	$(VENV)/bin/knitfem gallery --out $(OUT)/gallery --quiet
 
 bench: $(STAMP)
 	$(VENV)/bin/python studies/bench_beam.py --out $(OUT)/bench_beam
 	$(VENV)/bin/python studies/bench_popup.py --out $(OUT)/bench_popup
+	$(VENV)/bin/python studies/bench_contact.py --out $(OUT)/bench_contact
 
 # optional: knitfem vs PyElastica on the S-rod (own venv, pyelastica is not a dependency)
 bench-elastica: $(STAMP)

@@ -2,6 +2,7 @@
 
 Commands
   popup     the S-rod pop-up: continuation in c/L, critical point, popped branches
+  knit      plain-knit swatch geometry: .vtu, render, summary
   gallery   the beam verification gallery (closed-form checks as plots)
 """
 import argparse
@@ -80,6 +81,9 @@ def build_parser():
     p.add_argument("--no-render", action="store_true", help="skip the pyvista render")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(run=_popup)
+
+    from .scenes.knit import add_parser as add_knit_parser
+    add_knit_parser(sub)
 
     g = sub.add_parser("gallery", help="beam verification gallery: plots, .vtu, render")
     g.add_argument("--out", default="studies/results/gallery", help="output folder")

@@ -65,8 +65,8 @@ class SegmentContact:
         self._ranked_by = None
 
     def evaluate(self, x0, x1, tangent=True, length=None):
-        """(energy, pairs (m, 2), per-pair gradients (m, 12), Hessians or None,
-        ContactReport)."""
+        """(energy, the pairs carrying force (k, 2), their gradients (k, 12),
+        Hessians (k, 12, 12) or None, ContactReport)."""
         if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(x1))):
             raise ValueError("segment ends contain NaN or infinite values")
         pairs = candidate_pairs(x0, x1, self.radius, self.rod, self.s_mid, self.law.g0,
@@ -76,11 +76,11 @@ class SegmentContact:
                 ContactReport(0, 0, np.inf, 0.0, 0.0, 0.0)
         if length is not None and self._ranked_by is not length:
             self.rank, self._ranked_by = slave_rank(self.rod, length), length
-        energy, grads, hess, stats = pair_forces(x0, x1, self.radius, pairs, self.law,
-                                                 self.per_diameter, 4, tangent, length, self.rank)
-        active = int(np.count_nonzero(np.any(grads != 0.0, axis=1)))
+        energy, active, grads, hess, stats = pair_forces(x0, x1, self.radius, pairs, self.law,
+                                                         self.per_diameter, 4, tangent, length,
+                                                         self.rank)
         penetration = max(0.0, -stats[0])
         R = 2.0 * self.radius.max()
-        return energy, pairs, grads, hess, ContactReport(
-            int(pairs.shape[0]), active, float(stats[0]), penetration, penetration / R,
-            float(stats[2]))
+        return energy, active, grads, hess, ContactReport(
+            int(pairs.shape[0]), int(active.shape[0]), float(stats[0]), penetration,
+            penetration / R, float(stats[2]))

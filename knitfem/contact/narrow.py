@@ -55,6 +55,19 @@ def _project(p, b0, b1):
 
 
 @njit(cache=True)
+def _gap_to(px, py, pz, b0, b1):
+    """Distance from (px, py, pz) to segment (b0, b1) and whether the foot was
+    clamped to an end; scalar arithmetic (the search loop must not allocate)."""
+    ex, ey, ez = b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]
+    qx, qy, qz = px - b0[0], py - b0[1], pz - b0[2]
+    eta = (qx * ex + qy * ey + qz * ez) / (ex * ex + ey * ey + ez * ez)
+    clamped = eta < -1e-9 or eta > 1.0 + 1e-9
+    eta = min(max(eta, 0.0), 1.0)
+    ux, uy, uz = qx - eta * ex, qy - eta * ey, qz - eta * ez
+    return np.sqrt(ux * ux + uy * uy + uz * uz), clamped
+
+
+@njit(cache=True)
 def _gauss_point(xi, a0, a1, b0, b1, R, W, k, g0, tangent, perm, grad, hess, stats, s, c, dF):
     """Energy of the Gauss point at xi on A against segment B, weight W; adds
     its gradient / tangent into the pair's slots through ``perm``."""
@@ -110,8 +123,6 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
     m = pairs.shape[0]
     nseg = x0.shape[0]
     energy = 0.0
-    grads = np.zeros((m, 12))
-    hess = np.zeros((m if tangent else 1, 12, 12))
     stats = np.array([np.inf, 0.0, 0.0])            # min gap, active points, total force
     direct = np.arange(12)
     swapped = np.concatenate((np.arange(6, 12), np.arange(6)))
@@ -130,36 +141,63 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
         a, b = (pairs[n, 0], pairs[n, 1]) if slave_first[n] else (pairs[n, 1], pairs[n, 0])
         master[fill[a]], index[fill[a]] = b, n
         fill[a] += 1
-    s, c, dF = np.empty(4), np.empty(12), np.empty(12)
+    # pass 1: the master of every slave Gauss point within reach (no allocation)
+    hits_A = np.empty(nseg * MAX_ORDER, np.int64)
+    hits_q = np.empty(nseg * MAX_ORDER, np.int64)
+    hits_t = np.empty(nseg * MAX_ORDER, np.int64)
+    nhits = 0
     for A in range(nseg):
         if start[A] == start[A + 1]:
             continue
         nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
+        a0, a1 = x0[A], x1[A]
         for q in range(nq):
             xi = XI[nq, q]
-            p = (1.0 - xi) * x0[A] + xi * x1[A]
+            px = (1.0 - xi) * a0[0] + xi * a1[0]
+            py = (1.0 - xi) * a0[1] + xi * a1[1]
+            pz = (1.0 - xi) * a0[2] + xi * a1[2]
             # prefer masters the point projects inside: across the joint of two
             # collinear master segments that keeps the energy C2 (the vertex
             # distance of a clamped projection only serves kinks and yarn ends)
             best, best_gap, best_inside = -1, np.inf, False
             for t in range(start[A], start[A + 1]):
                 B = master[t]
-                _, clamped, _, d = _project(p, x0[B], x1[B])
+                d, clamped = _gap_to(px, py, pz, x0[B], x1[B])
                 gap = d - radius[A] - radius[B]
                 inside = not clamped
                 if (inside and not best_inside) or (inside == best_inside and gap < best_gap):
                     best, best_gap, best_inside = t, gap, inside
             if best_gap < stats[0]:
                 stats[0] = best_gap
-            if best_gap >= g0:
-                continue
-            B, n = master[best], index[best]
-            H = hess[n] if tangent else hess[0]
-            energy += _gauss_point(xi, x0[A], x1[A], x0[B], x1[B], radius[A] + radius[B],
-                                   WTS[nq, q] * length[A], k, g0, tangent,
-                                   direct if slave_first[n] else swapped, grads[n], H, stats,
-                                   s, c, dF)
-    return energy, grads, hess, stats
+            if best_gap < g0:
+                hits_A[nhits], hits_q[nhits], hits_t[nhits] = A, q, best
+                nhits += 1
+    # compact numbering of the pairs that carry force
+    slot = np.full(m, -1, np.int64)
+    active = 0
+    for h in range(nhits):
+        n = index[hits_t[h]]
+        if slot[n] < 0:
+            slot[n] = active
+            active += 1
+    used = np.empty(active, np.int64)
+    for n in range(m):
+        if slot[n] >= 0:
+            used[slot[n]] = n
+    grads = np.zeros((active, 12))
+    hess = np.zeros((active if tangent else 1, 12, 12))
+    # pass 2: their energy, gradient and tangent
+    s, c, dF = np.empty(4), np.empty(12), np.empty(12)
+    for h in range(nhits):
+        A, q, t = hits_A[h], hits_q[h], hits_t[h]
+        B, n = master[t], index[t]
+        nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
+        H = hess[slot[n]] if tangent else hess[0]
+        energy += _gauss_point(XI[nq, q], x0[A], x1[A], x0[B], x1[B], radius[A] + radius[B],
+                               WTS[nq, q] * length[A], k, g0, tangent,
+                               direct if slave_first[n] else swapped, grads[slot[n]], H, stats,
+                               s, c, dF)
+    return energy, used, grads, hess, stats
 
 
 MAX_ORDER = 48
@@ -180,9 +218,10 @@ _XI, _WTS = _gauss_table()
 
 def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=True,
                 length=None, rank=None):
-    """Contact energy, per-pair gradients (m, 12) and Hessians (m, 12, 12) in
-    the slots (x0[i], x1[i], x0[j], x1[j]) of each pair (i, j), and statistics
-    (min gap, active Gauss points, total normal force).
+    """Contact energy, the pairs that carry force (k, 2), their gradients
+    (k, 12) and Hessians (k, 12, 12) in the slots (x0[i], x1[i], x0[j], x1[j])
+    of each pair (i, j), and statistics (min gap, active Gauss points, total
+    normal force).
 
     x0, x1 : (n, 3) segment ends; radius : (n,); length : (n,) arclength each
     segment stands for (default its chord); per_diameter, least : Gauss
@@ -193,8 +232,9 @@ def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=Tru
     x1 = np.ascontiguousarray(x1, dtype=float)
     length = np.linalg.norm(x1 - x0, axis=1) if length is None else np.asarray(length, float)
     rank = np.zeros(x0.shape[0], np.int64) if rank is None else np.asarray(rank, np.int64)
-    energy, grads, hess, stats = _all_pairs(x0, x1, np.asarray(radius, float), length, rank,
-                                            np.ascontiguousarray(pairs, dtype=np.int64), _XI,
+    pairs = np.ascontiguousarray(pairs, dtype=np.int64)
+    energy, used, grads, hess, stats = _all_pairs(x0, x1, np.asarray(radius, float), length, rank,
+                                            pairs, _XI,
                                             _WTS, float(per_diameter), int(least),
                                             float(law.k), float(law.g0), bool(tangent))
-    return energy, grads, (hess if tangent else None), stats
+    return energy, pairs[used], grads, (hess if tangent else None), stats
