@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from knitfem.beam import BeamModel, Rod, Section
+from knitfem.beam import Section
 from knitfem.verify import cases, closed_form
 
 

@@ -1,7 +1,6 @@
 """The element kernel: residual = energy gradient, tangent = residual derivative,
 strains = their definition, objectivity."""
 import numpy as np
-import pytest
 from scipy.spatial.transform import Rotation
 
 from knitfem.beam.element import element_forces, element_strains

@@ -1,7 +1,5 @@
 """Model assembly, supports, loads, several rods and the global tangent."""
 import numpy as np
-import pytest
-from scipy.spatial.transform import Rotation
 
 from knitfem import BeamModel, Rod, Section
 from knitfem.beam.rotation import rotate_spatially

@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit, prange
 
 from .quatalg import (congruence, dot, increment_map, mm, mv, quadratic_form, quat_left,
-                      quat_right, relative_quaternion, rotation_matrix, tmm, tmv)
+                      quat_right, relative_quaternion, rotation_matrix, tmv)
 from .series import chord_coefficients, log_coefficients
 
 # Scratch arrays of one element, allocated once per chunk of elements: numba
@@ -70,7 +70,7 @@ def _workspace():
 @njit(cache=True)
 def _chord_strain_derivative(c_, b_, X, v, out):
     """out (3, 4) = d(M X)/dp at fixed X, M = c I + b v v^T, p = (w, v)."""
-    c, c_w, c_t = c_[0], c_[1], c_[2]
+    c_w, c_t = c_[1], c_[2]
     b, b_w, b_t = b_[0], b_[1], b_[2]
     xv = X[0] * v[0] + X[1] * v[1] + X[2] * v[2]
     for i in range(3):
@@ -198,7 +198,7 @@ def _elements(lo, hi, XA, XB, QA, QB, H, G0, K0, CNs, CMs, energies, R, Ks, tang
                     acc += Jpsi[k, i] * CM[k] / h * Jpsi[k, j]
                 Hp[i, j] += acc
         # axial-shear: second derivatives of phi(p) at fixed N, Gm
-        c_w, c_t, c_ww, c_wt, c_tt = c_[1], c_[2], c_[3], c_[4], c_[5]
+        c_t, c_ww, c_wt, c_tt = c_[2], c_[3], c_[4], c_[5]
         b_w, b_t, b_ww, b_wt, b_tt = b_[1], b_[2], b_[3], b_[4], b_[5]
         bg = beta * gam
         Hp[0, 0] += h * (c_ww * alpha + b_ww * bg)

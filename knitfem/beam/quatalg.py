@@ -3,7 +3,6 @@
 All functions write into caller-provided arrays: allocating inside the element
 loop costs more than the arithmetic.  Quaternions are (w, x, y, z).
 """
-import numpy as np
 from numba import njit
 
 
