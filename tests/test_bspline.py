@@ -5,7 +5,7 @@ import pytest
 
 from knitfem.bspline import (BSplineModel, ContactLaw, RelaxationError, Yarn, curve,
                              relax_dynamic, relax_static)
-from knitfem.bspline.contact import candidate_pairs, contact_energy
+from knitfem.bspline.contact import candidate_pairs, contact_damping, contact_energy
 
 
 def straight_yarn(length=10.0, segments=8, EA=100.0, EI=1.0, **kw):
@@ -73,6 +73,57 @@ def test_contact_is_zero_beyond_2r_and_repulsive_below():
     assert g[0, 2] > 0 and g[2, 2] < 0                          # -grad pushes them apart
     E1, *_ = contact_energy(pts * [1, 1, 0.99999], w, np.array([[0, 1]]), law)
     assert E1 == 0                                              # C1 at first touch: f(1) = f'(1) = 0
+
+
+def test_contact_damping_only_dissipates_and_splits_normal_from_tangential(rng):
+    pts = rng.uniform(0, 2.0, size=(40, 3))
+    vel = rng.normal(size=(40, 3))
+    w = rng.uniform(0.5, 1.5, size=40)
+    law = ContactLaw(1.0, 0.5, damping=2.0, tangential_damping=0.3)
+    pairs = np.array([(i, j) for i in range(40) for j in range(i + 1, 40)])
+    f = contact_damping(pts, vel, w, pairs, law)
+    assert np.sum(f * vel) < 0                          # dissipates
+    assert np.allclose(f.sum(axis=0), 0, atol=1e-12)    # action = reaction
+    near = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1) < 1.0
+    touched = np.unique(pairs[near])
+    assert np.all(f[np.setdiff1d(np.arange(40), touched)] == 0)   # nothing beyond 2r
+    # one pair: the normal and tangential parts of the relative velocity, each with its coefficient
+    p2, v2 = np.array([[0.0, 0, 0], [0.0, 0, 0.8]]), np.array([[1.0, 0, 3.0], [0.0, 0, 0]])
+    f2 = contact_damping(p2, v2, np.array([2.0, 0.5]), np.array([[0, 1]]), law)
+    assert np.allclose(f2[0], -1.0 * np.array([0.3 * 1.0, 0.0, 2.0 * 3.0]))
+    assert np.allclose(f2[1], -f2[0])
+    assert not contact_damping(p2, v2, np.ones(2), np.array([[0, 1]]), ContactLaw(1.0, 0.5)).any()
+
+
+def crossed_yarns(law):
+    """Two clamped straight yarns crossing at right angles 1.5 r apart: contact
+    pushes them apart and bends both."""
+    t = np.linspace(-5, 5, 200)
+    a = np.stack([t, np.zeros_like(t), np.zeros_like(t)], axis=1)
+    b = np.stack([np.zeros_like(t), t, np.full_like(t, 0.75)], axis=1)
+    yarns = [Yarn.through(p, 12, 100.0, 1.0, natural="straight", length=10.0, radius=0.5)
+             for p in (a, b)]
+    model = BSplineModel(yarns, contact=law)
+    for k in (0, 1):
+        model.clamp(k, "start")
+        model.clamp(k, "end")
+    return model
+
+
+def test_contact_damping_changes_the_path_not_the_equilibrium(rng):
+    plain = crossed_yarns(ContactLaw(50.0, 0.5))
+    damped = crossed_yarns(ContactLaw(50.0, 0.5, damping=5.0, tangential_damping=5.0))
+    y0 = plain.reduce(plain._initial())
+    v = rng.normal(size=y0.shape)
+    assert np.dot(damped.contact_damping(y0, v), v) < 0            # wired in, dissipative
+    assert not plain.contact_damping(y0, v).any()
+    # the Kaldor law's Hessian jumps at first touch, so L-BFGS stalls near 5e-7: compare at 1e-6
+    reference = relax_static(plain, y0, rtol=1e-6)
+    result = relax_dynamic(damped, y0, rtol=1e-6, kinetic=False, damping=0.5)
+    q0, q_ref, q = (plain.control_points(y) for y in (y0, reference.y, result.y))
+    assert np.abs(q_ref - q0)[:, 2].max() > 0.1                 # contact did bend the yarns
+    assert np.abs(q - q_ref).max() < 1e-6 * 10.0                # same state, to 1e-6 L
+    assert damped.reduced_energy(result.y)[0] == pytest.approx(reference.energy, rel=1e-8)
 
 
 def test_clamp_holds_position_and_tangent_exactly_and_leaves_curvature_free(rng):

@@ -19,7 +19,7 @@ from scipy import sparse
 from scipy.sparse import linalg as splinalg
 
 from . import curve, energy
-from .contact import ContactLaw, candidate_pairs, contact_energy
+from .contact import ContactLaw, candidate_pairs, contact_damping, contact_energy
 
 
 def _positive(name, value, allow_zero=False):
@@ -221,7 +221,7 @@ class BSplineModel:
     # -- energy ----------------------------------------------------------------------
     def samples(self, q):
         """Gauss-point positions (S*G, 3), their arclength weights, yarn id, arclength."""
-        pts = np.einsum("gj,sjk->sgk", self.quad.B, q[self.seg]).reshape(-1, 3)
+        pts = self._at_samples(q)
         weights = (self.rest[:, None] * self.quad.w[None, :]).ravel()
         start = np.concatenate([[0.0], np.cumsum(self.rest)])[:-1]
         arclength = (start[:, None] + self.rest[:, None] * self.quad.u[None, :]).ravel()
@@ -247,15 +247,38 @@ class BSplineModel:
             pairs = candidate_pairs(pts, yarn, s, self.contact)
             Ec, gp, _ = contact_energy(pts, weights, pairs, self.contact)
             if Ec:
-                gq = np.einsum("gj,sgk->sjk", self.quad.B, gp.reshape(len(self.seg), -1, 3))
-                gc = np.zeros_like(q)
-                for k in range(3):
-                    gc[:, k] = np.bincount(self.seg.ravel(), gq[:, :, k].ravel(), minlength=self.n)
+                gc = self._to_control_points(gp)
                 total += Ec
                 grad = grad + gc
                 ref += np.linalg.norm(gc)
         # forces below an axial strain of 1e-9 are noise: a floor for unloaded states
         return total, grad, max(ref, 1e-9 * float(self.EA.max()))
+
+    def _at_samples(self, q):
+        """Control-point vectors (n, 3) -> the curve's vectors at the Gauss points (S*G, 3)."""
+        return np.einsum("gj,sjk->sgk", self.quad.B, q[self.seg]).reshape(-1, 3)
+
+    def _to_control_points(self, sample_vectors):
+        """Gauss-point forces (S*G, 3) -> the same virtual work on control points (n, 3)."""
+        per = np.einsum("gj,sgk->sjk", self.quad.B, sample_vectors.reshape(len(self.seg), -1, 3))
+        out = np.zeros((self.n, 3))
+        for k in range(3):
+            out[:, k] = np.bincount(self.seg.ravel(), per[:, :, k].ravel(), minlength=self.n)
+        return out
+
+    def contact_damping(self, y, v):
+        """Contact damping force on the reduced coordinates at state y moving
+        with velocity v (zero without a dissipative contact law)."""
+        if self.contact is None or not self.contact.dissipates:
+            return np.zeros_like(v)
+        Z, _ = self.reduction()
+        q = self.control_points(y)
+        qdot = (Z @ v).reshape(-1, 3)          # the clamps hold still while relaxing
+        pts, weights, yarn, s = self.samples(q)
+        vel = self._at_samples(qdot)
+        pairs = candidate_pairs(pts, yarn, s, self.contact)
+        f = contact_damping(pts, vel, weights, pairs, self.contact)
+        return Z.T @ self._to_control_points(f).ravel()
 
     def centrelines(self, q, per_segment=8):
         """Per yarn: points (m, 3), unit tangents (m, 3) and curvature (m,) sampled
