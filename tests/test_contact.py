@@ -158,6 +158,81 @@ def test_contact_tangent_matches_central_differences(rng):
         assert np.linalg.norm((fp - fm) / (2 * e) - K @ v) < 1e-6 * np.linalg.norm(K @ v)
 
 
+@pytest.mark.parametrize("h,h_prev,ramp", [(0.99, 0.995, 1.0), (1.025, 1.026, 0.5)])
+def test_normal_damping_is_c_times_the_gap_rate(h, h_prev, ramp):
+    """Parallel rigid yarns (slave length 2) closing at a uniform gap rate:
+    the damping line load is c psi(g) dg/dt with psi = 1 in contact and the
+    penalty ramp (g0 - g)/g0 in the regularisation zone (to 1e-12)."""
+    n = 8
+    s = np.linspace(0.0, 2.0, n + 1)
+    a0 = np.stack([s[:-1], 0 * s[:-1], 0 * s[:-1]], 1)
+    a1 = np.stack([s[1:], 0 * s[1:], 0 * s[1:]], 1)
+    x0, x1 = np.vstack([a0, a0 + [0, 0, h]]), np.vstack([a1, a1 + [0, 0, h]])
+    p0, p1 = np.vstack([a0, a0 + [0, 0, h_prev]]), np.vstack([a1, a1 + [0, 0, h_prev]])
+    rod, s_mid = np.repeat([0, 1], n), np.tile(0.5 * (s[:-1] + s[1:]), 2)
+    law = PenaltyLaw(k=50.0, g0=0.05)
+    contact = SegmentContact(law, np.full(2 * n, R), rod, s_mid)
+    c, dt = 3.0, 0.5
+
+    def force_on_b(**kw):
+        _, pairs, grads, _, _ = contact.evaluate(x0, x1, tangent=False, **kw)
+        return sum(g[2] * (rod[i] == 1) + g[5] * (rod[i] == 1) + g[8] * (rod[j] == 1)
+                   + g[11] * (rod[j] == 1) for (i, j), g in zip(pairs, grads))
+
+    damping = force_on_b(previous=(p0, p1), damping_rate=c / dt) - force_on_b()
+    g, g_prev = h - 2 * R, h_prev - 2 * R
+    assert ramp == pytest.approx(min(1.0, (law.g0 - g) / law.g0), abs=1e-12)
+    assert damping == pytest.approx(c * ramp * (g - g_prev) / dt * 2.0, rel=1e-12)
+    assert force_on_b(previous=(x0, x1), damping_rate=c / dt) == pytest.approx(force_on_b(),
+                                                                                 rel=1e-14)
+
+
+def test_damped_contact_tangent_matches_central_differences(rng):
+    """The damping terms keep the tangent exact (relative error < 1e-6)."""
+    model = crossed_beams(push=0.0, elements=8)
+    model.contact(damping=20.0)
+    state = model.initial_state()
+    nodes = model.assembly.node_offset
+    state.x[nodes[1]:nodes[2], 2] -= 0.09
+    previous = state.x + 0.01 * rng.normal(size=state.x.shape)
+    state.x += 0.002 * rng.normal(size=state.x.shape)
+    state.q = rotate_spatially(state.q, 0.05 * rng.normal(size=(state.q.shape[0], 3)))
+    model.contact_model.rate_reference = (previous, 0.1)
+    _, f, K = model.internal_forces(state)
+    assert model.contact_model.report.active_pairs > 0
+    for _ in range(3):
+        v = rng.normal(size=f.shape)
+        e = 1e-7
+        fp = model.internal_forces(model.retract(state, e * v), tangent=False)[1]
+        fm = model.internal_forces(model.retract(state, -e * v), tangent=False)[1]
+        assert np.linalg.norm((fp - fm) / (2 * e) - K @ v) < 1e-6 * np.linalg.norm(K @ v)
+
+
+def test_damping_resists_the_push_and_fades_with_slower_loading():
+    """Crossed beams pushed together over pseudo-time T with normal damping:
+    Newton converges, the supports push harder than without damping in the
+    last increment (the damping resists the approach), the excess falls like
+    1/T (10x slower loading -> 10x less, within 15 %), and the damping is gone
+    after the solve (equilibria and reports see the elastic contact)."""
+    loads = np.linspace(0.25, 1, 4)
+    push = {}
+    for duration in (None, 1.0, 10.0):
+        model = crossed_beams(push=0.2)
+        if duration is not None:
+            model.contact(damping=1e4, duration=duration)
+        steps = model.solve(loads=loads)
+        assert all(s.history[-1] <= 1e-10 or s.roundoff_limited for s in steps)
+        assert model.contact_model.rate_reference is None
+        if duration is not None:      # the last increment's damping, to read its reactions
+            model.contact_model.rate_reference = (steps[-2].state.x, 0.25 * duration)
+        nodes = model.assembly.node_offset
+        push[duration] = -model.reactions(steps[-1].state, 1.0).reshape(-1, 6)[
+            nodes[1]:nodes[2], 2].sum()
+    excess = {T: push[T] - push[None] for T in (1.0, 10.0)}
+    assert excess[1.0] > 0 and excess[10.0] > 0
+    assert excess[1.0] / excess[10.0] == pytest.approx(10.0, rel=0.15)
+
+
 @pytest.mark.parametrize("n", [50, 400])
 def test_broad_phase_finds_exactly_the_brute_force_candidates(rng, n):
     x0 = rng.uniform(0, 10, (n, 3))
@@ -186,6 +261,8 @@ def test_scene_without_close_segments_pays_nothing():
     (lambda: SegmentContact(PenaltyLaw(1.0, 0.1), [-0.1], [0], [0.0]), r"segment radii must be"),
     (lambda: SegmentContact(PenaltyLaw(1.0, 0.1), [0.1, 0.1], [0, 1], [0, 0]).evaluate(
         np.array([[0, 0, np.nan], [1, 1, 1.0]]), np.ones((2, 3))), r"NaN"),
+    (lambda: BeamModel().contact(damping=-1.0), r"contact damping must be finite and in \[0, inf\)"),
+    (lambda: BeamModel().contact(duration=0.0), r"contact duration must be finite and in \(0, inf\)"),
 ])
 def test_bad_contact_input_is_refused(call, match):
     with pytest.raises(ValueError, match=match):

@@ -201,14 +201,22 @@ class BeamModel:
         self._nodal.append((self.node(rod, at), np.r_[np.zeros(3), _vector("moment", M)]))
 
     def contact(self, law=None, *, factor=DEFAULT_FACTOR, regularisation=DEFAULT_REGULARISATION,
-                exclude=None, per_diameter=6):
+                exclude=None, per_diameter=6, damping=0.0, duration=1.0):
         """Switch on penalty contact among all rods (self-contact included).
 
         law : a :class:`knitfem.contact.PenaltyLaw`, default k = factor EI/r^4
         of the softest rod, g0 = regularisation (r_a + r_b).  exclude : arclength
         below which elements of one rod are neighbours (default 4 r).
+        damping : normal damping c (line load per gap rate, force time/length^2)
+        acting during :meth:`solve`'s increments, the load path 0 -> 1 taking
+        the pseudo-time ``duration``.
         """
-        self._contact = (law, factor, regularisation, exclude, per_diameter)
+        for name, value, low in (("damping", damping, "[0"), ("duration", duration, "(0")):
+            if not (np.isfinite(value) and (value > 0 or (value == 0 and low == "[0"))):
+                raise ValueError(f"contact {name} must be finite and in {low}, inf), "
+                                 f"got {value!r}")
+        self._contact = (law, factor, regularisation, exclude, per_diameter, float(damping),
+                         float(duration))
         self._contact_model = None
 
     @property
@@ -217,10 +225,15 @@ class BeamModel:
         if self._contact is None:
             return None
         if getattr(self, "_contact_model", None) is None:
-            law, factor, regularisation, exclude, per_diameter = self._contact
+            law, factor, regularisation, exclude, per_diameter, damping, _ = self._contact
             law = default_law(self.rods, factor, regularisation) if law is None else law
-            self._contact_model = BeamContact(self.assembly, law, exclude, per_diameter)
+            self._contact_model = BeamContact(self.assembly, law, exclude, per_diameter, damping)
         return self._contact_model
+
+    @property
+    def contact_duration(self):
+        """Pseudo-time of the load path 0 -> 1 (for contact damping)."""
+        return self._contact[6] if self._contact is not None else 1.0
 
     def contact_report(self, state):
         """Active pairs, min gap, max penetration, total normal force at ``state``."""
@@ -366,5 +379,9 @@ class BeamModel:
         # contact makes the residual jump when yarns meet: a residual line search
         # keeps Newton from overshooting into (or through) the other yarn
         newton_options.setdefault("line_search", self._contact is not None)
-        return load_stepping(lambda lam: self.static_problem(lam, relax_positions), state,
-                             list(loads), start=start, **newton_options)
+        try:
+            return load_stepping(lambda lam: self.static_problem(lam, relax_positions), state,
+                                 list(loads), start=start, **newton_options)
+        finally:
+            if self.contact_model is not None:
+                self.contact_model.rate_reference = None      # damping lives in increments only

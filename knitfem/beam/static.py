@@ -22,6 +22,15 @@ class StaticProblem:
         self.weight = np.where(rotational, 1.0 / model.length_scale(), 1.0)
         self.f_ext = model.external_forces()
 
+    def begin_increment(self, lam_prev, state_prev):
+        """The increment from (lam_prev, state_prev) to lam: the reference of
+        contact damping (gap rates over the pseudo-time of the increment)."""
+        contact = self.model.contact_model
+        if contact is None or contact.damping == 0.0:
+            return
+        dt = abs(self.lam - lam_prev) * self.model.contact_duration
+        contact.rate_reference = (state_prev.x.copy(), dt) if dt > 0 else None
+
     def start(self, state):
         return self.relax_positions(self.model.apply_supports(state, self.lam))
 

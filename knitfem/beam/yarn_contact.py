@@ -6,6 +6,13 @@ reference length, so its derivatives involve positions only).  The pair
 gradients and tangents of :mod:`knitfem.contact` land on the translational
 dofs of the four nodes of a pair; the matrix is built per call (its pattern
 changes with the active pairs) and added to the structural tangent.
+
+Normal damping (``damping`` c > 0) acts only while an increment is being
+solved: the load stepping sets ``rate_reference`` = (positions at the start
+of the increment, its pseudo-time dt) and clears it afterwards, so
+equilibria, continuation and reports see the elastic contact alone.  A
+regularised friction law would use the same reference (slip of the slave
+point along the master over dt).
 """
 import numpy as np
 from scipy import sparse
@@ -18,7 +25,7 @@ class BeamContact:
     """Contact among all elements of a model's rods (self-contact included,
     minus neighbours closer than ``exclude`` along a rod)."""
 
-    def __init__(self, assembly, law, exclude=None, per_diameter=6):
+    def __init__(self, assembly, law, exclude=None, per_diameter=6, damping=0.0):
         radius = np.array([r.section.radius for r in assembly.rods])[assembly.rod_of_element]
         if not np.all(np.isfinite(radius)):
             raise ValueError("contact needs every rod's section to have a radius "
@@ -30,6 +37,8 @@ class BeamContact:
         self.length = assembly.h
         self.n_dofs = assembly.n_dofs
         self.report = None
+        self.damping = float(damping)      # line load per gap rate (force time / length^2)
+        self.rate_reference = None         # (positions (n_nodes, 3), dt) during an increment
 
     def noise(self, x):
         """Round-off level of the contact forces: the gap of every active
@@ -51,8 +60,12 @@ class BeamContact:
         """Energy, force vector (n_dofs,), tangent (CSR, free dofs only if
         ``free`` is given) and K @ direction (or None)."""
         a, b = self.nodes[:, 0], self.nodes[:, 1]
-        energy, pairs, grads, hess, self.report = self.segments.evaluate(x[a], x[b], tangent,
-                                                                         self.length)
+        previous, rate = None, 0.0
+        if self.damping > 0.0 and self.rate_reference is not None:
+            x_prev, dt = self.rate_reference
+            previous, rate = (x_prev[a], x_prev[b]), self.damping / dt
+        energy, pairs, grads, hess, self.report = self.segments.evaluate(
+            x[a], x[b], tangent, self.length, previous, rate)
         dofs = self._dofs(pairs)
         f = np.bincount(dofs.ravel(), grads.ravel(), minlength=self.n_dofs)
         K = Kv = None

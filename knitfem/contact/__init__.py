@@ -64,9 +64,11 @@ class SegmentContact:
         self.per_diameter = float(per_diameter)
         self._ranked_by = None
 
-    def evaluate(self, x0, x1, tangent=True, length=None):
+    def evaluate(self, x0, x1, tangent=True, length=None, previous=None, damping_rate=0.0):
         """(energy, the pairs carrying force (k, 2), their gradients (k, 12),
-        Hessians (k, 12, 12) or None, ContactReport)."""
+        Hessians (k, 12, 12) or None, ContactReport).  previous = (x0, x1) at
+        the start of an increment and damping_rate = c/dt add normal damping
+        (see :mod:`knitfem.contact.narrow`)."""
         if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(x1))):
             raise ValueError("segment ends contain NaN or infinite values")
         pairs = candidate_pairs(x0, x1, self.radius, self.rod, self.s_mid, self.law.g0,
@@ -78,7 +80,7 @@ class SegmentContact:
             self.rank, self._ranked_by = slave_rank(self.rod, length), length
         energy, active, grads, hess, stats = pair_forces(x0, x1, self.radius, pairs, self.law,
                                                          self.per_diameter, 4, tangent, length,
-                                                         self.rank)
+                                                         self.rank, previous, damping_rate)
         penetration = max(0.0, -stats[0])
         R = 2.0 * self.radius.max()
         return energy, active, grads, hess, ContactReport(

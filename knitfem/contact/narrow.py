@@ -24,6 +24,15 @@ contact zone of a crossing.  With F = |u|^2/2 and s = ((1-xi), xi,
 
 (the envelope theorem for the projection), chained through d = sqrt(2F) to
 phi(g): the tangent is exact, so Newton stays quadratic with contact active.
+
+Normal damping (optional, for quasi-static or dynamic increments): a line load
+c psi(g) dg/dt resisting the gap rate of each active Gauss point, with
+dg/dt = (g - g_prev) / dt, g_prev the gap of the same slave point to the same
+master segment at the start of the increment, and psi = phi''/k the
+penalty's stiffness ramp (0 at g0, 1 in contact), so the damping fades in
+with the contact and the force stays continuous.  It adds
+h = c psi (g - g_prev)/dt to phi' and h' = c (psi + psi' (g - g_prev))/dt to
+phi'', so the tangent stays exact (and symmetric); it stores no energy.
 Compiled with numba: the loop over pairs and Gauss points is the hot spot.
 """
 import numpy as np
@@ -68,9 +77,11 @@ def _gap_to(px, py, pz, b0, b1):
 
 
 @njit(cache=True)
-def _gauss_point(xi, a0, a1, b0, b1, R, W, k, g0, tangent, perm, grad, hess, stats, s, c, dF):
+def _gauss_point(xi, a0, a1, b0, b1, R, W, k, g0, tangent, perm, grad, hess, stats, s, c, dF,
+                 g_prev, c_dt):
     """Energy of the Gauss point at xi on A against segment B, weight W; adds
-    its gradient / tangent into the pair's slots through ``perm``."""
+    its gradient / tangent into the pair's slots through ``perm``.  c_dt > 0:
+    normal damping c/dt against the gap g_prev at the start of the increment."""
     p = (1.0 - xi) * a0 + xi * a1
     eta, clamped, u, d = _project(p, b0, b1)
     g = d - R
@@ -79,6 +90,11 @@ def _gauss_point(xi, a0, a1, b0, b1, R, W, k, g0, tangent, perm, grad, hess, sta
     e = b1 - b0
     L2 = e @ e
     phi, dphi, ddphi = _law(g, k, g0)
+    if c_dt > 0.0:
+        ramp = ddphi / k
+        slope = -1.0 / g0 if g >= 0.0 else 0.0
+        dphi += c_dt * ramp * (g - g_prev)
+        ddphi += c_dt * (ramp + slope * (g - g_prev))
     stats[1] += 1.0
     stats[2] += -W * dphi                          # normal force carried
     s[0], s[1], s[2], s[3] = 1.0 - xi, xi, -(1.0 - eta), -eta
@@ -113,7 +129,7 @@ def _points(length, diameter, per_diameter, least):
 
 @njit(cache=True)
 def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least, k, g0,
-               tangent):
+               tangent, x0p, x1p, c_dt):
     """Slave Gauss points against their master segments.  The slave of a pair
     is the segment of lower ``rank`` (ranks are per yarn, so one yarn is the
     slave of another everywhere and no contact is counted from both sides;
@@ -193,10 +209,15 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
         B, n = master[t], index[t]
         nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
         H = hess[slot[n]] if tangent else hess[0]
-        energy += _gauss_point(XI[nq, q], x0[A], x1[A], x0[B], x1[B], radius[A] + radius[B],
+        xi = XI[nq, q]
+        g_prev = 0.0
+        if c_dt > 0.0:       # the same slave point against the same master, a step ago
+            pp = (1.0 - xi) * x0p[A] + xi * x1p[A]
+            g_prev = _gap_to(pp[0], pp[1], pp[2], x0p[B], x1p[B])[0] - radius[A] - radius[B]
+        energy += _gauss_point(xi, x0[A], x1[A], x0[B], x1[B], radius[A] + radius[B],
                                WTS[nq, q] * length[A], k, g0, tangent,
                                direct if slave_first[n] else swapped, grads[slot[n]], H, stats,
-                               s, c, dF)
+                               s, c, dF, g_prev, c_dt)
     return energy, used, grads, hess, stats
 
 
@@ -217,7 +238,7 @@ _XI, _WTS = _gauss_table()
 
 
 def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=True,
-                length=None, rank=None):
+                length=None, rank=None, previous=None, damping_rate=0.0):
     """Contact energy, the pairs that carry force (k, 2), their gradients
     (k, 12) and Hessians (k, 12, 12) in the slots (x0[i], x1[i], x0[j], x1[j])
     of each pair (i, j), and statistics (min gap, active Gauss points, total
@@ -226,15 +247,22 @@ def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=Tru
     x0, x1 : (n, 3) segment ends; radius : (n,); length : (n,) arclength each
     segment stands for (default its chord); per_diameter, least : Gauss
     points per yarn diameter and at least per segment (at most 48); rank :
-    (n,) slave priority (default all equal: the lower index is the slave).
+    (n,) slave priority (default all equal: the lower index is the slave);
+    previous : (x0, x1) at the start of the increment and damping_rate = c/dt
+    (line load per gap change) for normal damping (see the module docstring).
     """
     x0 = np.ascontiguousarray(x0, dtype=float)
     x1 = np.ascontiguousarray(x1, dtype=float)
     length = np.linalg.norm(x1 - x0, axis=1) if length is None else np.asarray(length, float)
     rank = np.zeros(x0.shape[0], np.int64) if rank is None else np.asarray(rank, np.int64)
     pairs = np.ascontiguousarray(pairs, dtype=np.int64)
+    damping_rate = float(damping_rate)
+    if damping_rate > 0.0:
+        x0p, x1p = (np.ascontiguousarray(v, dtype=float) for v in previous)
+    else:
+        x0p, x1p, damping_rate = x0, x1, 0.0
     energy, used, grads, hess, stats = _all_pairs(x0, x1, np.asarray(radius, float), length, rank,
-                                            pairs, _XI,
-                                            _WTS, float(per_diameter), int(least),
-                                            float(law.k), float(law.g0), bool(tangent))
+                                                  pairs, _XI, _WTS, float(per_diameter),
+                                                  int(least), float(law.k), float(law.g0),
+                                                  bool(tangent), x0p, x1p, damping_rate)
     return energy, pairs[used], grads, (hess if tangent else None), stats

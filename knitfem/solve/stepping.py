@@ -4,7 +4,9 @@ Generic: ``problem_at(lam)`` returns a Newton problem (see
 :mod:`knitfem.solve.newton`) for the load factor ``lam``.  If that problem has
 ``extrapolate(x_prev, x, factor)`` (the state reached by repeating the last
 increment ``factor`` times), each step first tries that secant predictor and
-falls back to the last equilibrium when Newton fails from it.
+falls back to the last equilibrium when Newton fails from it.  If it has
+``begin_increment(lam_prev, x_prev)``, that is called before each increment
+(rate-dependent terms such as contact damping need where the step started).
 """
 from dataclasses import dataclass, field
 
@@ -50,6 +52,8 @@ def load_stepping(problem_at, x0, loads, *, start=0.0, max_halvings=8, **newton_
         while True:
             trial = target if abs(target - lam) <= abs(dlam) else lam + dlam
             problem = problem_at(trial)
+            if hasattr(problem, "begin_increment"):
+                problem.begin_increment(lam, x)
             guesses = [x]
             if previous is not None and hasattr(problem, "extrapolate"):
                 ratio = (trial - lam) / (lam - previous[0])
