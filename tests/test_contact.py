@@ -86,6 +86,27 @@ def test_crossed_beams_pushed_together_are_in_equilibrium():
     assert report.active_pairs > 0 and report.max_penetration < 0.01 * 2 * R
 
 
+def test_contact_is_written_to_the_vtu(tmp_path):
+    """The .vtu of a contact state carries the nodal contact forces (summing
+    to what B's supports push with) and per element the smallest gap (the
+    report's minimum near the crossing, g0 far from it) and an active flag."""
+    import meshio
+    from knitfem.io.vtk import write_beam_state
+    model = crossed_beams(push=0.2)
+    state = model.solve(loads=np.linspace(0.25, 1, 4))[-1].state
+    mesh = meshio.read(write_beam_state(tmp_path / "contact.vtu", model, state))
+    report = model.contact_report(state)
+    nodes = model.assembly.node_offset
+    force_on_b = mesh.point_data["contact_force"][nodes[1]:nodes[2], 2].sum()
+    push = -model.reactions(state, 1.0).reshape(-1, 6)[nodes[1]:nodes[2], 2].sum()
+    assert force_on_b == pytest.approx(push, rel=1e-8)
+    assert np.allclose(mesh.point_data["contact_force"].sum(axis=0), 0, atol=1e-8 * push)
+    gap, active = mesh.cell_data["contact_gap"][0], mesh.cell_data["contact_active"][0]
+    g0 = model.contact_model.segments.law.g0
+    assert gap.min() == pytest.approx(report.min_gap, abs=1e-14)
+    assert 0 < active.sum() <= 8 and np.all(gap[active == 0] == g0)
+
+
 def test_parallel_line_contact_carries_a_uniform_load_without_spikes():
     """A beam lying on a parallel rigid beam (non-matching meshes) under its own
     weight: the contact load equals the weight at every interior node of the

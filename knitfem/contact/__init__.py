@@ -5,7 +5,7 @@ narrow phase and the penalty law, and returns per-pair 12-vectors and 12 x 12
 consistent tangents in the slots of the pair's segment ends; a model scatters
 them into its own unknowns.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -21,13 +21,15 @@ __all__ = ["ContactReport", "PenaltyLaw", "SegmentContact", "brute_force_pairs",
 class ContactReport:
     """After a solve: candidate and active pairs, the smallest gap (negative =
     penetration), the largest penetration as a fraction of the summed radii,
-    the total normal force."""
+    the total normal force; per segment the smallest gap, capped at the
+    law's reach g0 (>= g0: no contact)."""
     candidates: int
     active_pairs: int
     min_gap: float
     max_penetration: float
     max_penetration_ratio: float
     total_normal_force: float
+    segment_gap: np.ndarray = field(default=None, repr=False)
 
 
 def slave_rank(rod, length=None):
@@ -75,14 +77,14 @@ class SegmentContact:
                                 self.exclude)
         if pairs.shape[0] == 0:
             return 0.0, pairs, np.zeros((0, 12)), (np.zeros((0, 12, 12)) if tangent else None), \
-                ContactReport(0, 0, np.inf, 0.0, 0.0, 0.0)
+                ContactReport(0, 0, np.inf, 0.0, 0.0, 0.0, np.full(len(x0), self.law.g0))
         if length is not None and self._ranked_by is not length:
             self.rank, self._ranked_by = slave_rank(self.rod, length), length
-        energy, active, grads, hess, stats = pair_forces(x0, x1, self.radius, pairs, self.law,
-                                                         self.per_diameter, 4, tangent, length,
-                                                         self.rank, previous, damping_rate)
+        energy, active, grads, hess, stats, seg_gap = pair_forces(
+            x0, x1, self.radius, pairs, self.law, self.per_diameter, 4, tangent, length,
+            self.rank, previous, damping_rate)
         penetration = max(0.0, -stats[0])
         R = 2.0 * self.radius.max()
         return energy, active, grads, hess, ContactReport(
             int(pairs.shape[0]), int(active.shape[0]), float(stats[0]), penetration,
-            penetration / R, float(stats[2]))
+            penetration / R, float(stats[2]), np.minimum(seg_gap, self.law.g0))

@@ -140,6 +140,7 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
     nseg = x0.shape[0]
     energy = 0.0
     stats = np.array([np.inf, 0.0, 0.0])            # min gap, active points, total force
+    seg_gap = np.full(nseg, np.inf)                 # smallest gap seen by each segment
     direct = np.arange(12)
     swapped = np.concatenate((np.arange(6, 12), np.arange(6)))
     # masters of every slave segment (CSR): master, pair index, slave is pairs[n, 0]
@@ -185,6 +186,9 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
                     best, best_gap, best_inside = t, gap, inside
             if best_gap < stats[0]:
                 stats[0] = best_gap
+            if best >= 0:
+                seg_gap[A] = min(seg_gap[A], best_gap)
+                seg_gap[master[best]] = min(seg_gap[master[best]], best_gap)
             if best_gap < g0:
                 hits_A[nhits], hits_q[nhits], hits_t[nhits] = A, q, best
                 nhits += 1
@@ -218,7 +222,7 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
                                WTS[nq, q] * length[A], k, g0, tangent,
                                direct if slave_first[n] else swapped, grads[slot[n]], H, stats,
                                s, c, dF, g_prev, c_dt)
-    return energy, used, grads, hess, stats
+    return energy, used, grads, hess, stats, seg_gap
 
 
 MAX_ORDER = 48
@@ -241,8 +245,9 @@ def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=Tru
                 length=None, rank=None, previous=None, damping_rate=0.0):
     """Contact energy, the pairs that carry force (k, 2), their gradients
     (k, 12) and Hessians (k, 12, 12) in the slots (x0[i], x1[i], x0[j], x1[j])
-    of each pair (i, j), and statistics (min gap, active Gauss points, total
-    normal force).
+    of each pair (i, j), statistics (min gap, active Gauss points, total
+    normal force) and the smallest gap seen by each segment (n,) (inf where
+    none of its Gauss points, or none facing it, had a candidate).
 
     x0, x1 : (n, 3) segment ends; radius : (n,); length : (n,) arclength each
     segment stands for (default its chord); per_diameter, least : Gauss
@@ -261,8 +266,7 @@ def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=Tru
         x0p, x1p = (np.ascontiguousarray(v, dtype=float) for v in previous)
     else:
         x0p, x1p, damping_rate = x0, x1, 0.0
-    energy, used, grads, hess, stats = _all_pairs(x0, x1, np.asarray(radius, float), length, rank,
-                                                  pairs, _XI, _WTS, float(per_diameter),
-                                                  int(least), float(law.k), float(law.g0),
-                                                  bool(tangent), x0p, x1p, damping_rate)
-    return energy, pairs[used], grads, (hess if tangent else None), stats
+    energy, used, grads, hess, stats, seg_gap = _all_pairs(
+        x0, x1, np.asarray(radius, float), length, rank, pairs, _XI, _WTS, float(per_diameter),
+        int(least), float(law.k), float(law.g0), bool(tangent), x0p, x1p, damping_rate)
+    return energy, pairs[used], grads, (hess if tangent else None), stats, seg_gap

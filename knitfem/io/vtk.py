@@ -3,8 +3,11 @@
 Each node is a point, each element a ``line`` cell (meshio cannot write
 ``polyline``).  Point data: the directors d1, d2, d3, the twist K1 and the
 curvature |(K2, K3)| (averages of the adjacent elements); cell data: the
-material strains Gamma and K, and the rod id.  A branch or load history is a
-``.pvd`` collection of ``.vtu`` files.
+material strains Gamma and K, and the rod id.  With contact on, also the
+nodal contact force (point data ``contact_force``) and per element the
+smallest gap capped at the law's reach g0 (``contact_gap``) and whether it
+touches (``contact_active``).  A branch or load history is a ``.pvd``
+collection of ``.vtu`` files.
 """
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -30,6 +33,13 @@ def beam_mesh(model, state, **extra_point_data):
                   "curvature": at_nodes(np.linalg.norm(kappa[:, 1:], axis=1))}
     point_data.update({k: np.asarray(v) for k, v in extra_point_data.items()})
     cell_data = {"gamma": [gamma], "kappa": [kappa], "rod": [asm.rod_of_element.astype(np.int32)]}
+    contact = model.contact_model
+    if contact is not None:
+        _, fc, _, _ = contact.forces(state.x, tangent=False)
+        gap = contact.report.segment_gap
+        point_data["contact_force"] = -fc.reshape(-1, 6)[:, :3]
+        cell_data["contact_gap"] = [gap]
+        cell_data["contact_active"] = [(gap < contact.segments.law.g0).astype(np.int32)]
     return meshio.Mesh(state.x, [("line", asm.elements.T.astype(np.int64))],
                        point_data=point_data, cell_data=cell_data)
 
