@@ -26,7 +26,7 @@ def test_critical_point_comes_from_the_generic_detector(result):
     event = result.planar.events[0]
     assert event.kind == "bifurcation" and out_of_plane(result.problem, event)
     assert (event.negative_before, event.negative_after) == (0, 1)
-    assert event.bracket <= 1e-8 and event.lam == result.critical_c_over_L
+    assert 0 < event.bracket <= 1e-8 and event.lam == result.critical_c_over_L
     assert 0.70 < result.critical_c_over_L < 0.76      # paper: pop-up below c/L ~ 0.7
 
 

@@ -266,20 +266,24 @@ class Continuation:
             return (-1.0) ** p.negative * np.exp(np.clip(p.logdet - a.logdet, -700, 700))
 
         ds = b.s - a.s
-        probes = {}
+        probes = {0.0: a, ds: b}
+        values = {}
 
         def f(sigma):
-            if sigma <= 0.0:
-                return test(a)
-            if sigma >= ds:
-                return test(b)
-            probes[sigma] = self.step(a, sigma)
-            return test(probes[sigma])
+            sigma = min(max(sigma, 0.0), ds)
+            if sigma not in probes:
+                probes[sigma] = self.step(a, sigma)
+            values[sigma] = test(probes[sigma])
+            return values[sigma]
 
         scale = ds / max(abs(b.lam - a.lam), 1e-300)     # arclength per unit lam
         sigma = brentq(f, 0.0, ds, xtol=0.25 * self.locate_tol * scale, rtol=1e-15)
         critical = probes.get(sigma) or self.step(a, sigma)
-        bracket = 0.25 * self.locate_tol
+        # the tightest pair of evaluated points across which the test function
+        # changes sign: the measured location error, in lam
+        seen = sorted(values.items())
+        bracket = min(abs(probes[s2].lam - probes[s1].lam)
+                      for (s1, v1), (s2, v2) in zip(seen, seen[1:]) if v1 * v2 <= 0)
         event = Event(kind, critical.lam, critical, index, a.negative, b.negative, bracket=bracket)
         if kind == "bifurcation":
             _, J, _, _ = self.problem.evaluate(critical.state, critical.lam, True)
