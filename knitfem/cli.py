@@ -13,15 +13,27 @@ from pathlib import Path
 W_OVER_L = 28.4 / 105.0          # the paper's rod: w = 28.4 mm, L = 105 mm
 
 
+def _refuse_torsion_options(args):
+    """The bspline model has no twist energy: refuse torsion options rather
+    than ignore them (given explicitly = not None, the parser's default)."""
+    for option, value in (("--poisson", args.poisson), ("--gj-over-ei", args.gj_over_ei)):
+        if value is not None:
+            raise ValueError(f"{option} does not apply to --model bspline: the bspline model has "
+                             f"no torsional stiffness (no twist energy)")
+
+
 def _popup(args):
     from .scenes import popup_output
     from .scenes.srod import SRod, popup
+    if args.model == "bspline":
+        _refuse_torsion_options(args)
+    poisson = SRod.poisson if args.poisson is None else args.poisson     # 0.5
     srod = SRod(length=args.length, w=args.w_over_L * args.length, diameter=args.diameter,
-                poisson=args.poisson, gj_over_ei=args.gj_over_ei, elements=args.elements)
+                poisson=poisson, gj_over_ei=args.gj_over_ei, elements=args.elements)
     if args.model == "bspline":
         from .scenes.srod_bspline import bspline_popup
         result = bspline_popup(srod, args.c_from, args.c_to, args.c_step, segments=args.elements,
-                               method=args.relax)
+                               method=args.relax, progress=not args.quiet)
         write = popup_output.write_bspline_popup
     else:
         result = popup(srod, args.c_from, args.c_to, args.c_step)
@@ -71,9 +83,11 @@ def build_parser():
     p.add_argument("--relax", choices=("static", "dynamic"), default="static",
                    help="bspline model: L-BFGS (static, default) or dynamic relaxation")
     stiff = p.add_mutually_exclusive_group()
-    stiff.add_argument("--poisson", type=float, default=0.5,
-                       help="Poisson ratio, GJ/EI = 1/(1+nu) (default 0.5)")
-    stiff.add_argument("--gj-over-ei", type=float, default=None, help="explicit GJ/EI")
+    # default None, not 0.5: --model bspline must tell a given option from the default
+    stiff.add_argument("--poisson", type=float, default=None,
+                       help="beam model: Poisson ratio, GJ/EI = 1/(1+nu) (default 0.5)")
+    stiff.add_argument("--gj-over-ei", type=float, default=None,
+                       help="beam model: explicit GJ/EI")
     p.add_argument("--length", type=float, default=105.0, help="rod length L, mm (105)")
     p.add_argument("--diameter", type=float, default=3.0, help="rod diameter, mm (3)")
     p.add_argument("--out", help="folder for CSV, .vtu, plot and render")

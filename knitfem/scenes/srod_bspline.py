@@ -15,6 +15,7 @@ it is unstable the rod pops.  The first grid interval where max|z|/L exceeds
 planar state plus the imperfection) narrows it to ``c_tol``.
 """
 from dataclasses import dataclass, field
+import sys
 import time
 
 import numpy as np
@@ -103,10 +104,74 @@ class _Marcher:
         return q, max_height(q) / L, result.iterations
 
 
+def _bisection_steps(width, c_tol):
+    """Halvings that take a bracket of ``width`` (c/L) down to ``c_tol``."""
+    return int(np.ceil(np.log2(width / c_tol))) if width > c_tol else 0
+
+
+class _Progress:
+    """tqdm bar (stderr) over relaxations: grid samples, then bisection steps;
+    does nothing when off."""
+
+    def __init__(self, on, total):
+        self.bar = None
+        if on:
+            from tqdm import tqdm
+            self.bar = tqdm(total=total, desc="B-spline pop-up", unit="relax", file=sys.stderr)
+
+    def add(self, steps):
+        if self.bar is not None:
+            self.bar.total += steps
+            self.bar.refresh()
+
+    def step(self, c, z):
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"c/L={c:.4f} max|z|/L={z:.2e}", refresh=False)
+            self.bar.update()
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _sweep(march, grid, q, threshold, bar):
+    """Relax at every c of ``grid`` in turn from the previous shape; the samples
+    and the last planar (c, q) (None if none)."""
+    samples, last_planar = [], None
+    for c in grid:
+        q, z, its = march.at(c, q)
+        samples.append(BSplineSample(float(c), z, True, q, its))
+        bar.step(c, z)
+        if z <= threshold:
+            last_planar = (c, q)
+    return samples, last_planar
+
+
+def _bisect(march, samples, last_planar, threshold, c_tol, bar):
+    """Critical c/L and its bracket (lo popped, hi planar) narrowed to c_tol,
+    or (None, (nan, nan)) when the samples do not bracket a pop-up."""
+    popped = [s for s in samples if s.max_abs_z_over_L > threshold]
+    if not (popped and last_planar is not None and popped[0].c_over_L < last_planar[0]):
+        return None, (np.nan, np.nan)
+    hi, q_hi = last_planar                       # planar, stable
+    lo = popped[0].c_over_L                      # popped
+    bar.add(_bisection_steps(hi - lo, c_tol))    # known only now
+    while hi - lo > c_tol:
+        mid = 0.5 * (hi + lo)
+        q_mid, z, _ = march.at(mid, q_hi)
+        bar.step(mid, z)
+        if z > threshold:
+            lo = mid
+        else:
+            hi, q_hi = mid, q_mid
+    return 0.5 * (hi + lo), (lo, hi)
+
+
 def bspline_popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, segments=32, method="static",
-                  imperfection=1e-3, threshold=5e-3, c_tol=2e-3, rtol=1e-6):
+                  imperfection=1e-3, threshold=5e-3, c_tol=2e-3, rtol=1e-6, progress=False):
     """Pop-up of ``srod`` in the B-spline model, sampled at c_from, c_from -
-    c_step, ... >= c_to; returns a :class:`BSplinePopup`."""
+    c_step, ... >= c_to; returns a :class:`BSplinePopup`.  progress: a tqdm bar
+    on stderr, one tick per relaxation (grid samples, then bisection steps)."""
     c_from = srod.check_c("c_from", c_from)
     c_to = srod.check_c("c_to", c_to)
     if not c_to < c_from:
@@ -120,25 +185,12 @@ def bspline_popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, segments=32, met
     march = _Marcher(srod, model, method, imperfection, rtol)
     q = model.control_points(model.reduce(model.yarns[0].control))
     grid = c_from - c_step * np.arange(int(np.floor((c_from - c_to) / c_step + 1e-9)) + 1)
-    samples, last_planar = [], None
-    for c in grid:
-        q, z, its = march.at(c, q)
-        samples.append(BSplineSample(float(c), z, True, q, its))
-        if z <= threshold:
-            last_planar = (c, q)
-    critical, bracket = None, (np.nan, np.nan)
-    popped = [s for s in samples if s.max_abs_z_over_L > threshold]
-    if popped and last_planar is not None and popped[0].c_over_L < last_planar[0]:
-        hi, q_hi = last_planar                       # planar, stable
-        lo = popped[0].c_over_L                      # popped
-        while hi - lo > c_tol:
-            mid = 0.5 * (hi + lo)
-            q_mid, z, _ = march.at(mid, q_hi)
-            if z > threshold:
-                lo = mid
-            else:
-                hi, q_hi = mid, q_mid
-        critical, bracket = 0.5 * (hi + lo), (lo, hi)
+    bar = _Progress(progress, len(grid))
+    try:                                        # close the bar also when a relaxation fails
+        samples, last_planar = _sweep(march, grid, q, threshold, bar)
+        critical, bracket = _bisect(march, samples, last_planar, threshold, c_tol, bar)
+    finally:
+        bar.close()
     elapsed = time.perf_counter() - t0
     return BSplinePopup(srod, int(segments), method, c_from, c_to, critical, bracket, samples,
                         elapsed, model)
