@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from knitfem.beam import Section
+from knitfem.beam import BeamModel, Rod, Section
 from knitfem.verify import cases, closed_form
 
 
@@ -104,3 +104,77 @@ def test_no_shear_locking_up_to_slenderness_1000(slenderness):
     end = model.solve(loads=[1.0])[-1].state
     exact = closed_form.timoshenko_cantilever_tip(P, L, section.EI3, section.GA2)
     assert abs(-end.x[-1, 1] / exact - 1) < 2e-3
+
+
+# -- natural (intrinsic) curvature and twist ------------------------------------------------
+# Stress-free shapes are constant-strain states, exact for the helicoidal element.  EA L^2/EI
+# = 1e4 keeps the round-off floor of the residual at ~1e-11 EI/L (the relaxed shape carries no
+# axial force, so it does not depend on EA).
+NATURAL = Section(EA=1e4, GA2=1e4, GA3=1e4, GJ=0.7, EI2=1.0, EI3=1.0)
+
+
+def natural_cantilever(elements, natural_curvature):
+    """Rod of length 1 laid out straight along +x (d2 = y, d3 = z), clamped at
+    x = 0, with natural (twist, k2, k3) = ``natural_curvature``."""
+    model = BeamModel()
+    rod = model.add_rod(Rod.straight((0, 0, 0), (1, 0, 0), 1.0, elements, NATURAL,
+                                     natural_curvature=natural_curvature))
+    model.clamp(rod, "start")
+    return model
+
+
+def relax(model):
+    """Equilibrium of an unloaded model: with no load and no reaction the
+    residual has no scale but its round-off level, where Newton stops."""
+    step = model.solve(loads=[1.0])[-1]
+    assert step.roundoff_limited
+    return step.state
+
+
+def arc_nodes(curvature, s):
+    """(x, y) of points at arclengths s on an arc from the origin along +x with
+    signed curvature about +z (closed_form.end_moment_tip scaled to length s)."""
+    return np.array([si * closed_form.end_moment_tip(curvature * si) for si in s])
+
+
+@pytest.mark.parametrize("director", [1, 2])
+def test_naturally_curved_rod_relaxes_to_its_circle(director):
+    """Natural curvature 3 pi/2 about d2 (bends toward -z) or d3 (toward +y), laid
+    out straight, clamped, free: three quarters of a circle of radius 2/(3 pi),
+    every node within 1e-8 L of the exact arc (measured 2e-12 and 6e-12)."""
+    k = 1.5 * np.pi
+    end = relax(natural_cantilever(16, np.eye(3)[director] * k))
+    s = np.linspace(0.0, 1.0, 17)
+    sign = -1.0 if director == 1 else 1.0              # about d2 = y, x turns toward -z
+    exact = arc_nodes(k, s) * [1.0, sign]
+    planar = end.x[:, [0, 2]] if director == 1 else end.x[:, :2]
+    assert np.max(np.abs(planar - exact)) < 1e-8
+    assert np.max(np.abs(end.x[:, 2 if director == 2 else 1])) < 1e-12
+
+
+@pytest.mark.parametrize("twist", [2.5, 7.0])
+def test_naturally_twisted_rod_untwists_about_a_straight_axis(twist):
+    """Natural twist tau L = 2.5 and 7 (beyond 2 pi), laid out untwisted,
+    clamped, free: each frame turns by tau s about the axis, within 1e-10 rad
+    at every node (measured 6e-15); the axis stays on x within 1e-12 L."""
+    end = relax(natural_cantilever(16, (twist, 0.0, 0.0)))
+    s = np.linspace(0.0, 1.0, 17)
+    d2 = end.frames[:, :, 1]
+    turn = np.arctan2(d2[:, 2], d2[:, 1])
+    error = np.angle(np.exp(1j * (turn - twist * s)))   # wrapped to (-pi, pi]
+    assert np.max(np.abs(error)) < 1e-10
+    assert np.allclose(end.frames[:, :, 0], [1, 0, 0], atol=1e-12)
+    assert np.allclose(end.x, np.c_[s, np.zeros((17, 2))], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("moment", [0.5 * np.pi, -0.5 * np.pi])
+def test_end_moment_adds_to_natural_curvature(moment):
+    """Natural curvature pi/2 about d3 plus an end moment M about z, M L/EI =
+    +-pi/2: an arc of curvature kappa0 + M/EI (a half circle, or straight again),
+    every node within 1e-8 L (measured 5e-12)."""
+    model = natural_cantilever(16, (0.0, 0.0, 0.5 * np.pi))
+    model.moment(0, "end", (0.0, 0.0, moment * NATURAL.EI3))
+    end = model.solve(loads=[0.5, 1.0])[-1].state
+    s = np.linspace(0.0, 1.0, 17)
+    assert np.max(np.abs(end.x[:, :2] - arc_nodes(0.5 * np.pi + moment, s))) < 1e-8
+    assert np.max(np.abs(end.x[:, 2])) < 1e-12
