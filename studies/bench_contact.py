@@ -5,7 +5,9 @@
    residual only and with the consistent tangent; medians.
 2. Newton iterations per load step with contact active in the two-ply
    (two clamped rods turned one full turn about each other).
-3. Penetration and iterations against the penalty stiffness over 4 decades.
+3. Penetration and iterations against the penalty stiffness over 4 decades:
+   crossed beams pushed together, and a yarn pressed onto a parallel yarn by
+   the design line load q = EI/r^3 (gap against the law's closed form).
 
     python studies/bench_contact.py --out studies/results/bench_contact
 """
@@ -19,6 +21,7 @@ import numpy as np
 from knitfem import BeamModel, Rod, Section
 from knitfem.contact import PenaltyLaw, SegmentContact
 from knitfem.geometry import plain_knit_swatch
+from knitfem.verify.cases import yarn_on_yarn
 
 R = 0.4
 
@@ -53,7 +56,7 @@ def timing(targets, repeat):
             times = []
             for _ in range(repeat):
                 t = time.perf_counter()
-                _, pairs, _, _, report = contact.evaluate(x0, x1, tangent, length)
+                *_, report = contact.evaluate(x0, x1, tangent, length)
                 times.append(time.perf_counter() - t)
             row["tangent_ms" if tangent else "residual_ms"] = 1e3 * float(np.median(times))
         row["candidate_pairs"], row["active_pairs"] = report.candidates, report.active_pairs
@@ -97,6 +100,21 @@ def crossed(factor, push=0.25):
     model.contact(factor=factor)
     steps = model.solve(loads=np.linspace(0.1, 1.0, 10))
     return steps, model.contact_report(steps[-1].state)
+
+
+def parallel(factor):
+    """A yarn lying on a parallel yarn (non-matching meshes), pressed by the
+    line load q = EI/r^3: its gap, and the gap where the law carries q."""
+    r = 0.5
+    q = Section.circle(2 * r, E=1e3, nu=0.3).EI2 / r**3
+    model = yarn_on_yarn(q, factor)
+    steps = model.solve(loads=np.linspace(0.1, 1.0, 10))
+    nodes = model.assembly.node_offset
+    gap = steps[-1].state.x[nodes[1]:nodes[2], 2] - 2 * r
+    law = model.contact_model.segments.law
+    k, g0 = law.k, law.g0
+    exact = g0 - np.sqrt(2 * g0 * q / k) if q < k * g0 / 2 else g0 / 2 - q / k
+    return gap, exact, [s.iterations for s in steps]
 
 
 def main():
@@ -143,8 +161,19 @@ def main():
         print(f"  factor {factor:g}: penetration {report.max_penetration_ratio:.2e} d, min gap "
               f"{report.min_gap:+.2e} d, force {report.total_normal_force:.4g}, iterations "
               f"median {np.median(its):.0f} max {max(its)}")
+    print("yarn pressed onto a parallel yarn by q = EI/r^3, gap vs penalty (d = 1)")
+    line = []
+    for factor in (10.0, 100.0, 1000.0, 10000.0):
+        gap, exact, its = parallel(factor)
+        line.append({"factor": factor, "gap_over_d": float(gap.mean()),
+                     "gap_spread_over_d": float(np.ptp(gap)), "closed_form_gap_over_d": exact,
+                     "penetration_over_d": float(max(0.0, -gap.min())),
+                     "iterations_per_step": its})
+        print(f"  factor {factor:g}: gap {gap.mean():+.3e} d (closed form {exact:+.3e}, spread "
+              f"{np.ptp(gap):.1e}), penetration {max(0.0, -gap.min()):.2e} d, iterations "
+              f"median {np.median(its):.0f} max {max(its)}")
     (out / "bench_contact.json").write_text(json.dumps(
-        {"timing": rows, "two_ply": ply, "crossed": cross,
+        {"timing": rows, "two_ply": ply, "crossed": cross, "parallel_line_load": line,
          "two_ply_last_step_history": history}, indent=2))
 
 

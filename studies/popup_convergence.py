@@ -1,5 +1,6 @@
 """Studies (c) and (d): c_crit/L under mesh refinement (15, 30, 60, 120
-elements) and for GJ/EI in {0.5, 2/3, 1} (Poisson ratio 1, 0.5, 0).
+elements) and for GJ/EI in {0.5, 2/3, 1} (for an isotropic circle nu = 1, 0.5, 0;
+0.5 lies beyond isotropy, a yarn soft in torsion).
 
     python studies/popup_convergence.py --out studies/results/popup_convergence
 """

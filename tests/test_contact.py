@@ -2,10 +2,15 @@
 import numpy as np
 import pytest
 from scipy.integrate import quad
+from scipy.optimize import brentq
 
 from knitfem import BeamModel, Rod, Section
 from knitfem.beam.rotation import rotate_spatially
+from knitfem.beam.parametric import ParametricProblem
 from knitfem.contact import PenaltyLaw, SegmentContact, brute_force_pairs, candidate_pairs
+from knitfem.contact.narrow import bulge, neighbours, pair_forces
+from knitfem.solve.continuation import continuation
+from knitfem.verify.cases import yarn_on_yarn
 
 R = 0.5                                           # yarn radius
 
@@ -39,6 +44,12 @@ def crossed_beams(push, elements=40, E=1e4):
     return model
 
 
+def force_on_rod(rod, which, ends, grads):
+    """z-force of the contact gradients (pairs' slots) on the segments of rod ``which``."""
+    on = rod[ends // 2] == which                              # (k, 6) slot on that rod
+    return float(np.sum(grads.reshape(len(grads), 6, 3)[:, :, 2] * on))
+
+
 def perpendicular_lines(h, n=40, length=2.0):
     """Two straight perpendicular yarns of n segments, centrelines h apart."""
     s = np.linspace(-length / 2, length / 2, n + 1)
@@ -61,9 +72,8 @@ def test_crossing_force_is_the_penalty_law_integrated_along_the_yarn(h, tol):
     law = PenaltyLaw.relative(1.0, R)
     contact = SegmentContact(law, np.full(len(rod), R), rod, s_mid)
     length = np.linalg.norm(x1 - x0, axis=1)
-    _, pairs, grads, _, report = contact.evaluate(x0, x1, tangent=False, length=length)
-    on_b = sum(g[2] * (rod[i] == 1) + g[5] * (rod[i] == 1) + g[8] * (rod[j] == 1)
-               + g[11] * (rod[j] == 1) for (i, j), g in zip(pairs, grads))
+    _, _, ends, grads, _, report = contact.evaluate(x0, x1, tangent=False, length=length)
+    on_b = force_on_rod(rod, 1, ends, grads)
     F_law = quad(lambda s: law.force(np.hypot(s, h) - 2 * R) * h / np.hypot(s, h), -1, 1,
                  points=[0.0], epsabs=0, epsrel=1e-12, limit=400)[0]
     assert abs(-on_b / F_law - 1) < tol and report.active_pairs > 0
@@ -107,30 +117,122 @@ def test_contact_is_written_to_the_vtu(tmp_path):
     assert 0 < active.sum() <= 8 and np.all(gap[active == 0] == g0)
 
 
+def test_crossed_beams_carry_the_force_of_linear_beam_theory():
+    """Crossed clamped-clamped beams, B's supports pushed down by 0.1: the
+    contact force F solves h = h0 - push + (C_A + C_B) F(h) with F(h) the
+    penalty law integrated across the crossing and C the Timoshenko
+    compliances of the beams at the crossing, a^3 b^3/(3 EI L^3) + a b/(GA L);
+    within 1.5 % (the rest is geometric stiffening, O((w/d)^2))."""
+    push = 0.1
+    model = crossed_beams(push=push)
+    steps = model.solve(loads=np.linspace(0.25, 1, 4))
+    nodes = model.assembly.node_offset
+    F_fe = -model.reactions(steps[-1].state, 1.0).reshape(-1, 6)[nodes[1]:nodes[2], 2].sum()
+    section, law, L = model.rods[0].section, model.contact_model.segments.law, 10.0
+
+    def compliance(a):
+        b = L - a
+        return a**3 * b**3 / (3 * section.EI2 * L**3) + a * b / (section.GA2 * L)
+
+    def crossing_force(h):
+        return quad(lambda s: law.force(np.hypot(s, h) - 2 * R) * h / np.hypot(s, h), -1, 1,
+                    points=[0.0], epsabs=0, epsrel=1e-12, limit=400)[0]
+
+    C = compliance(5.07) + compliance(5.05)             # crossing at x = 0.07, y = 0.05 off centre
+    h = brentq(lambda h: h - (2 * R + 0.06 - push + C * crossing_force(h)), 2 * R, 2 * R + 0.06)
+    assert F_fe == pytest.approx(crossing_force(h), rel=0.015)
+    assert steps[-1].report.active_pairs > 0 and steps[-1].report.total_normal_force > 0
+
+
+def test_newton_converges_quadratically_with_the_crossing_on_nodes():
+    """The crossing exactly on a node of both beams (where a slave point
+    passes from one master segment to the next): the last Newton iterations
+    of every load step still converge quadratically, log r_k+1 / log r_k >= 1.6."""
+    section = Section.circle(2 * R, E=1e4, nu=0.3)
+    model = BeamModel()
+    a = model.add_rod(Rod.straight((-5, 0, 0), (1, 0, 0), 10.0, 40, section))
+    b = model.add_rod(Rod.straight((0, -5, 2 * R + 0.06), (0, 1, 0), 10.0, 40, section))
+    model.clamp(a, "start")
+    model.clamp(a, "end")
+    for end in ("start", "end"):
+        model.prescribe(b, end, displacement=(0, 0, -0.2), rotation=(0, 0, 0))
+    model.contact()
+    assert np.isclose(model.assembly.initial_positions()[model.node(a, 20)], 0).all()
+    for step in model.solve(loads=np.linspace(0.25, 1, 4)):
+        r = [h for h in step.history if h < 1e-2]
+        assert len(r) >= 2 and step.history[-1] <= 1e-10
+        assert all(np.log(r1) / np.log(r0) >= 1.6 for r0, r1 in zip(r, r[1:]))
+
+
+def test_master_curve_keeps_the_force_continuous_across_a_kink():
+    """A slave segment slid along the concave side of a master polyline with a
+    20 degree kink: as its Gauss points pass from one master segment to the
+    next, the force on it changes smoothly (largest change between samples
+    < 2x the median); against the bare chords it jumps (> 10x), which is what
+    made Newton linear there."""
+    th = np.radians(20.0)
+    master = np.array([(-3.0, 0, 0), (-2.0, 0, 0), (-1.0, 0, 0), (0.0, 0, 0)]
+                      + [(k * np.cos(th), 0.0, -k * np.sin(th)) for k in (1, 2, 3)])
+    law = PenaltyLaw(1000.0, 0.05)
+    rod = np.array([0] * 6 + [1])
+    s_mid, radius = np.r_[np.arange(6) + 0.5, 0.0], np.full(7, R)
+
+    def force(x, smooth):
+        x0 = np.vstack([master[:-1], [(x, -1.0, -0.97)]])
+        x1 = np.vstack([master[1:], [(x, 1.0, -0.97)]])
+        prev, nxt = neighbours(x0, x1, rod, s_mid)
+        if not smooth:
+            prev[:], nxt[:] = -1, -1
+        b = bulge(x0, x1, prev, nxt)
+        pairs = candidate_pairs(x0, x1, radius, rod, s_mid, law.g0, 2.0, b)
+        _, _, ends, grads, _, _, _ = pair_forces(x0, x1, radius, pairs, law, tangent=False,
+                                                 rank=1 - rod, prev=prev, nxt=nxt, bulges=b)
+        on_slave = rod[ends // 2] == 1
+        return np.sum(grads.reshape(-1, 6, 3) * on_slave[:, :, None], axis=(0, 1))
+
+    xs = np.linspace(-0.3, 0.3, 601)
+    for smooth, bound in ((True, lambda j: j.max() < 2 * np.median(j)),
+                          (False, lambda j: j.max() > 10 * np.median(j))):
+        jumps = np.linalg.norm(np.diff([force(x, smooth) for x in xs], axis=0), axis=1)
+        assert bound(jumps)
+
+
+def test_continuation_follows_the_contact_path():
+    """Pseudo-arclength continuation in the push of the crossed beams: the
+    branch completes, every point is stable, the corrector needs at most 4
+    iterations except where contact begins, the contact force grows along the
+    branch and the end state is the load-stepping equilibrium (1e-10 L)."""
+    model = crossed_beams(push=0.2)
+    branch = continuation(ParametricProblem(model), model.initial_state(), 0.0,
+                          lam_range=(0.0, 1.0), ds=0.05, ds_max=0.2)
+    assert branch.status == "completed"
+    assert all(p.negative == 0 for p in branch.points)
+    force = np.array([model.contact_report(p.state).total_normal_force for p in branch.points])
+    onset = int(np.argmax(force > 0))
+    assert onset > 0 and np.all(np.diff(force[onset:]) > 0)
+    assert all(p.iterations <= 4 for p in branch.points[onset + 1:])
+    reference = crossed_beams(push=0.2).solve(loads=np.linspace(0.25, 1, 4))[-1].state
+    assert np.abs(branch.points[-1].state.x - reference.x).max() < 1e-10 * 10.0
+
+
 def test_parallel_line_contact_carries_a_uniform_load_without_spikes():
     """A beam lying on a parallel rigid beam (non-matching meshes) under its own
     weight: the contact load equals the weight at every interior node of the
     lying beam (the slave: its elements are shorter) to 1e-6, its end nodes
     take half, and the gap is uniform (1e-9) with no penetration beyond 1 % of d."""
-    section = Section.circle(2 * R, E=1e3, nu=0.3, density=1.0)
-    model = BeamModel()
-    base = model.add_rod(Rod.straight((0, 0, 0), (1, 0, 0), 10.0, 13, section))
-    # starts inside the law's reach (gap 0.049 < g0 = 0.05): no free fall, no rigid mode
-    top = model.add_rod(Rod.straight((0.25, 0, 2 * R + 0.049), (1, 0, 0), 9.5, 17, section))
-    for i in range(14):
-        model.clamp(base, i)
-    for i in range(18):
-        model.fix(top, i, "ux uy rx rz")
-    model.gravity((0, 0, -9.81))
-    model.contact()
+    q = 9.81 * Section.circle(2 * R, E=1e3, nu=0.3, density=1.0).line_density
+    model = yarn_on_yarn(q)
     state = model.solve(loads=np.linspace(0.25, 1, 4))[-1].state
     _, fc, _, _ = model.contact_model.forces(state.x, tangent=False)
     nodes = model.assembly.node_offset
     on_top = -fc.reshape(-1, 6)[nodes[1]:nodes[2], 2]     # contact force on the lying beam
-    w = 9.81 * section.line_density * 9.5 / 17             # weight per element
+    w = q * 9.5 / 17                                       # weight per element
     assert np.allclose(on_top[1:-1], w, rtol=1e-6) and np.allclose(on_top[[0, -1]], w / 2, rtol=1e-6)
     gap = state.x[nodes[1]:nodes[2], 2] - 2 * R
     assert np.ptp(gap) < 1e-9 and -gap.min() < 0.01 * 2 * R
+    # the gap is where the law carries the weight per length: f(g) = q
+    law = model.contact_model.segments.law
+    assert law.force(gap.mean()) == pytest.approx(q, rel=1e-6)
 
 
 def test_two_clamped_rods_twist_into_a_two_ply():
@@ -196,9 +298,8 @@ def test_normal_damping_is_c_times_the_gap_rate(h, h_prev, ramp):
     c, dt = 3.0, 0.5
 
     def force_on_b(**kw):
-        _, pairs, grads, _, _ = contact.evaluate(x0, x1, tangent=False, **kw)
-        return sum(g[2] * (rod[i] == 1) + g[5] * (rod[i] == 1) + g[8] * (rod[j] == 1)
-                   + g[11] * (rod[j] == 1) for (i, j), g in zip(pairs, grads))
+        _, _, ends, grads, _, _ = contact.evaluate(x0, x1, tangent=False, **kw)
+        return force_on_rod(rod, 1, ends, grads)
 
     damping = force_on_b(previous=(p0, p1), damping_rate=c / dt) - force_on_b()
     g, g_prev = h - 2 * R, h_prev - 2 * R
@@ -256,21 +357,30 @@ def test_damping_resists_the_push_and_fades_with_slower_loading():
 
 @pytest.mark.parametrize("n", [50, 400])
 def test_broad_phase_finds_exactly_the_brute_force_candidates(rng, n):
+    """Against a reference written out here: every pair whose segments' bounding
+    spheres (midpoint, half length + r + g0/2 + bulge) overlap, minus
+    neighbours along one rod."""
     x0 = rng.uniform(0, 10, (n, 3))
     x1 = x0 + rng.normal(scale=0.6, size=(n, 3))
     radius = rng.uniform(0.1, 0.3, n)
     rod = rng.integers(0, 4, n)
     s_mid = rng.uniform(0, 30, n)
-    fast = candidate_pairs(x0, x1, radius, rod, s_mid, 0.05, 1.0)
-    slow = brute_force_pairs(x0, x1, radius, rod, s_mid, 0.05, 1.0)
+    bulges = rng.uniform(0, 0.2, n)
+    fast = candidate_pairs(x0, x1, radius, rod, s_mid, 0.05, 1.0, bulges)
+    rho = [np.linalg.norm(x1[i] - x0[i]) / 2 + radius[i] + 0.025 + bulges[i] for i in range(n)]
+    slow = {(i, j) for i in range(n) for j in range(i + 1, n)
+            if np.linalg.norm((x0[i] + x1[i] - x0[j] - x1[j]) / 2) < rho[i] + rho[j]
+            and (rod[i] != rod[j] or abs(s_mid[i] - s_mid[j]) > 1.0)}
     assert len(slow) > 0
-    assert set(map(tuple, np.sort(fast, axis=1))) == set(map(tuple, np.sort(slow, axis=1)))
+    assert set(map(tuple, np.sort(fast, axis=1))) == slow
+    assert set(map(tuple, np.sort(brute_force_pairs(x0, x1, radius, rod, s_mid, 0.05, 1.0,
+                                                    bulges), axis=1))) == slow
 
 
 def test_scene_without_close_segments_pays_nothing():
     contact = SegmentContact(PenaltyLaw(1.0, 0.01), np.full(2, 0.1), np.array([0, 1]),
                              np.zeros(2))
-    energy, pairs, grads, hess, report = contact.evaluate(np.array([[0, 0, 0], [0, 0, 5.0]]),
+    energy, pairs, _, grads, hess, report = contact.evaluate(np.array([[0, 0, 0], [0, 0, 5.0]]),
                                                           np.array([[1, 0, 0], [1, 0, 5.0]]))
     assert energy == 0 and len(pairs) == 0 and report.candidates == 0
 

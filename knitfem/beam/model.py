@@ -371,7 +371,8 @@ class BeamModel:
               **newton_options):
         """Equilibria at the load factors ``loads``, stepping from ``state`` (default
         the layout) at load ``start``; failed steps are halved.  Returns a list of
-        :class:`knitfem.solve.Step`, one per load.  ``relax_positions``: solve the
+        :class:`knitfem.solve.Step`, one per load (with contact, ``step.report`` is
+        its :class:`knitfem.contact.ContactReport`).  ``relax_positions``: solve the
         positions exactly for the current frames after every update (see
         :meth:`StaticProblem.relax_positions`)."""
         self.check()
@@ -380,8 +381,12 @@ class BeamModel:
         # keeps Newton from overshooting into (or through) the other yarn
         newton_options.setdefault("line_search", self._contact is not None)
         try:
-            return load_stepping(lambda lam: self.static_problem(lam, relax_positions), state,
-                                 list(loads), start=start, **newton_options)
+            steps = load_stepping(lambda lam: self.static_problem(lam, relax_positions), state,
+                                  list(loads), start=start, **newton_options)
         finally:
             if self.contact_model is not None:
                 self.contact_model.rate_reference = None      # damping lives in increments only
+        if self.contact_model is not None:
+            for step in steps:
+                step.report = self.contact_report(step.state)
+        return steps

@@ -4,7 +4,8 @@ Each element is a segment (x_A, x_B) with the radius of its rod's section and
 its reference length as integration measure (contact energy per unit
 reference length, so its derivatives involve positions only).  The pair
 gradients and tangents of :mod:`knitfem.contact` land on the translational
-dofs of the four nodes of a pair; the matrix is built per call (its pattern
+dofs of the six nodes of a pair (two on the slave, four shaping the
+master curve); the matrix is built per call (its pattern
 changes with the active pairs) and added to the structural tangent.
 
 Normal damping (``damping`` c > 0) acts only while an increment is being
@@ -51,10 +52,10 @@ class BeamContact:
         return float(self.segments.law.k * np.finfo(float).eps * size * np.sqrt(active_length
                                                                                 * self.length.max()))
 
-    def _dofs(self, pairs):
-        """(m, 12) global dofs of the slots (x0[i], x1[i], x0[j], x1[j])."""
-        nodes = np.concatenate([self.nodes[pairs[:, 0]], self.nodes[pairs[:, 1]]], axis=1)
-        return (DOFS_PER_NODE * nodes[:, :, None] + np.arange(3)).reshape(-1, 12)
+    def _dofs(self, ends):
+        """(m, 18) global dofs of the slots, from their segment ends (2 i + e)."""
+        nodes = self.nodes[ends // 2, ends % 2]
+        return (DOFS_PER_NODE * nodes[:, :, None] + np.arange(3)).reshape(-1, 18)
 
     def forces(self, x, tangent=True, free=None, direction=None):
         """Energy, force vector (n_dofs,), tangent (CSR, free dofs only if
@@ -64,9 +65,9 @@ class BeamContact:
         if self.damping > 0.0 and self.rate_reference is not None:
             x_prev, dt = self.rate_reference
             previous, rate = (x_prev[a], x_prev[b]), self.damping / dt
-        energy, pairs, grads, hess, self.report = self.segments.evaluate(
+        energy, _, ends, grads, hess, self.report = self.segments.evaluate(
             x[a], x[b], tangent, self.length, previous, rate)
-        dofs = self._dofs(pairs)
+        dofs = self._dofs(ends)
         f = np.bincount(dofs.ravel(), grads.ravel(), minlength=self.n_dofs)
         K = Kv = None
         if tangent:

@@ -1,9 +1,10 @@
 """Penalty yarn-yarn contact between centreline segments (knows segments, not beams).
 
-``SegmentContact`` runs the broad phase (cKDTree), the Gauss-point-to-segment
-narrow phase and the penalty law, and returns per-pair 12-vectors and 12 x 12
-consistent tangents in the slots of the pair's segment ends; a model scatters
-them into its own unknowns.
+``SegmentContact`` runs the broad phase (cKDTree), the Gauss-point-to-curve
+narrow phase and the penalty law, and returns per (slave, master) pair
+18-vectors and 18 x 18 consistent tangents in the slots of six segment ends
+(the slave's two, the master's two and its neighbours' far ends, which shape
+the smooth master curve); a model scatters them into its own unknowns.
 """
 from dataclasses import dataclass, field
 
@@ -11,7 +12,7 @@ import numpy as np
 
 from .broad import brute_force_pairs, candidate_pairs
 from .law import DEFAULT_FACTOR, DEFAULT_REGULARISATION, PenaltyLaw
-from .narrow import pair_forces
+from .narrow import bulge, neighbours, pair_forces
 
 __all__ = ["ContactReport", "PenaltyLaw", "SegmentContact", "brute_force_pairs",
            "candidate_pairs", "pair_forces", "DEFAULT_FACTOR", "DEFAULT_REGULARISATION"]
@@ -65,26 +66,31 @@ class SegmentContact:
         self.exclude = 4.0 * self.radius.max() if exclude is None else float(exclude)
         self.per_diameter = float(per_diameter)
         self._ranked_by = None
+        self._order = np.lexsort((self.s_mid, self.rod))
 
     def evaluate(self, x0, x1, tangent=True, length=None, previous=None, damping_rate=0.0):
-        """(energy, the pairs carrying force (k, 2), their gradients (k, 12),
-        Hessians (k, 12, 12) or None, ContactReport).  previous = (x0, x1) at
+        """(energy, the (slave, master) pairs carrying force (k, 2), their slots'
+        segment ends (k, 6) (2 i + e: end e of segment i), gradients (k, 18),
+        Hessians (k, 18, 18) or None, ContactReport).  previous = (x0, x1) at
         the start of an increment and damping_rate = c/dt add normal damping
         (see :mod:`knitfem.contact.narrow`)."""
         if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(x1))):
             raise ValueError("segment ends contain NaN or infinite values")
+        prev, nxt = neighbours(x0, x1, self.rod, self.s_mid, self._order)
+        bulges = bulge(x0, x1, prev, nxt)
         pairs = candidate_pairs(x0, x1, self.radius, self.rod, self.s_mid, self.law.g0,
-                                self.exclude)
+                                self.exclude, bulges)
         if pairs.shape[0] == 0:
-            return 0.0, pairs, np.zeros((0, 12)), (np.zeros((0, 12, 12)) if tangent else None), \
+            return 0.0, pairs, np.zeros((0, 6), np.int64), np.zeros((0, 18)), \
+                (np.zeros((0, 18, 18)) if tangent else None), \
                 ContactReport(0, 0, np.inf, 0.0, 0.0, 0.0, np.full(len(x0), self.law.g0))
         if length is not None and self._ranked_by is not length:
             self.rank, self._ranked_by = slave_rank(self.rod, length), length
-        energy, active, grads, hess, stats, seg_gap = pair_forces(
+        energy, active, ends, grads, hess, stats, seg_gap = pair_forces(
             x0, x1, self.radius, pairs, self.law, self.per_diameter, 4, tangent, length,
-            self.rank, previous, damping_rate)
+            self.rank, previous, damping_rate, prev, nxt, bulges)
         penetration = max(0.0, -stats[0])
         R = 2.0 * self.radius.max()
-        return energy, active, grads, hess, ContactReport(
+        return energy, active, ends, grads, hess, ContactReport(
             int(pairs.shape[0]), int(active.shape[0]), float(stats[0]), penetration,
             penetration / R, float(stats[2]), np.minimum(seg_gap, self.law.g0))

@@ -1,29 +1,39 @@
-"""Narrow phase: Gauss-point-to-segment (line-to-line) contact of segment pairs.
+"""Narrow phase: Gauss-point-to-curve (line-to-line) contact of segment pairs.
 
 Why not closest points between segments: yarns in a knit lie nearly parallel
 over long stretches, where the closest-point pair of two segments jumps and
 a single point force cannot carry a distributed load (Meier, Popp & Wall
-2016).  Here every Gauss point p of segment A is projected on segment B,
+2016).  Here every Gauss point p of a slave segment A (on its chord) is
+projected on the master segment B, seen as a smooth curve: the Catmull-Rom
+cubic through B's ends and its neighbours' far ends,
 
-    eta = clamp((p - b0)·e / |e|^2, 0, 1),  u = p - b0 - eta e,  e = b1 - b0,
-    g = |u| - (r_a + r_b),   energy  sum_gauss  w l_A phi(g),
+    c(t) = sum_k N_k(t) M_k,  M = (x0[prev B], x0[B], x1[B], x1[next B]),
 
-where A is the slave of the pair and B, among A's candidate masters, the
-segment of smallest gap from p (so a point facing the joint of two master
-segments is not counted twice).  Slaves are chosen per yarn (the yarn with
-the finer elements, as the non-mortar side of a mortar method), so each
-contact is counted once; a uniform pressure gives exactly uniform nodal
-forces on the slave.  Crossing yarns are covered too, by the Gauss points near the
-crossing: the number of points per segment grows with its length so that
-every yarn diameter holds ``per_diameter`` of them, which resolves the short
-contact zone of a crossing.  With F = |u|^2/2 and s = ((1-xi), xi,
--(1-eta), -eta), the derivatives in z = (a0, a1, b0, b1) are
+(a yarn end continues straight: a ghost point 2 x0[B] - x1[B] folded into
+the shape functions).  Neighbouring master curves join with a continuous
+tangent, so the distance to the master yarn has a continuous gradient
+everywhere, also where a slave point passes from one master segment to the
+next on the concave side of a kink of the polyline: the minimum of two chord
+distances would make the force jump there and Newton linear.  With
+u = p - c(t*), t* the closest point (local Newton from the chord projection),
 
-    grad F = S^T u,   hess F = S^T S - c c^T / |e|^2   (c = S^T e + E^T u,
-                      E^T u = (0, 0, -u, u); drop the c term where eta is clamped)
+    g = |u| - (r_a + r_b),   energy  sum_gauss  w l_A phi(g).
 
-(the envelope theorem for the projection), chained through d = sqrt(2F) to
-phi(g): the tangent is exact, so Newton stays quadratic with contact active.
+A is the slave of the pair and B, among A's candidate masters, the segment
+of smallest gap from p (preferring masters p projects inside, so a point
+facing a joint is not counted twice).  Slaves are chosen per yarn (the yarn
+with the finer elements, as the non-mortar side of a mortar method), so each
+contact is counted once.  Crossings are resolved by the Gauss points near
+them: ``per_diameter`` points per yarn diameter along every slave segment.
+
+Derivatives in the 6 points z = (a0, a1, M0..M3), s = ((1-xi), xi, -N(t*)),
+F = |u|^2 / 2 (the envelope theorem for the projection):
+
+    grad F = S^T u,   hess F = S^T S - b b^T / (c'.c' - u.c''),
+    b = S^T c' + N'(t*) (x) u on the master points
+
+(drop the b term where t* is clamped to an end), chained through d = sqrt(2F)
+to phi(g): the tangent is exact, so Newton stays quadratic with contact.
 
 Normal damping (optional, for quasi-static or dynamic increments): a line load
 c psi(g) dg/dt resisting the gap rate of each active Gauss point, with
@@ -38,6 +48,9 @@ Compiled with numba: the loop over pairs and Gauss points is the hot spot.
 import numpy as np
 from numba import njit
 
+MAX_ORDER = 48
+SLOTS = 6                    # slave a0, a1; master M0..M3
+
 
 @njit(cache=True)
 def _law(g, k, g0):
@@ -51,44 +64,185 @@ def _law(g, k, g0):
 
 
 @njit(cache=True)
-def _project(p, b0, b1):
-    """Foot of p on segment (b0, b1): eta (clamped to [0, 1]), whether it was
-    clamped, u = p - foot, |u|."""
-    e = b1 - b0
-    eta = (p - b0) @ e / (e @ e)
-    # a foot at a segment end up to round-off counts as inside (see _all_pairs)
-    clamped = eta < -1e-9 or eta > 1.0 + 1e-9
-    eta = min(max(eta, 0.0), 1.0)
-    u = p - b0 - eta * e
-    return eta, clamped, u, np.sqrt(u @ u)
+def _fold(f, has_prev, has_next):
+    """Fold the ghost points of a yarn end (straight continuation) into the inner two."""
+    if not has_prev:                     # M0 = 2 M1 - M2
+        f[1] += 2.0 * f[0]
+        f[2] -= f[0]
+        f[0] = 0.0
+    if not has_next:                     # M3 = 2 M2 - M1
+        f[2] += 2.0 * f[3]
+        f[1] -= f[3]
+        f[3] = 0.0
 
 
 @njit(cache=True)
-def _gap_to(px, py, pz, b0, b1):
-    """Distance from (px, py, pz) to segment (b0, b1) and whether the foot was
-    clamped to an end; scalar arithmetic (the search loop must not allocate)."""
-    ex, ey, ez = b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]
-    qx, qy, qz = px - b0[0], py - b0[1], pz - b0[2]
-    eta = (qx * ex + qy * ey + qz * ez) / (ex * ex + ey * ey + ez * ez)
-    clamped = eta < -1e-9 or eta > 1.0 + 1e-9
-    eta = min(max(eta, 0.0), 1.0)
-    ux, uy, uz = qx - eta * ex, qy - eta * ey, qz - eta * ez
+def _shape(t, has_prev, has_next, N, dN, ddN):
+    """Catmull-Rom shape functions of the four master points and their first
+    two derivatives in t."""
+    t2, t3 = t * t, t * t * t
+    N[0], N[1] = 0.5 * (-t + 2.0 * t2 - t3), 0.5 * (2.0 - 5.0 * t2 + 3.0 * t3)
+    N[2], N[3] = 0.5 * (t + 4.0 * t2 - 3.0 * t3), 0.5 * (-t2 + t3)
+    dN[0], dN[1] = 0.5 * (-1.0 + 4.0 * t - 3.0 * t2), 0.5 * (-10.0 * t + 9.0 * t2)
+    dN[2], dN[3] = 0.5 * (1.0 + 8.0 * t - 9.0 * t2), 0.5 * (-2.0 * t + 3.0 * t2)
+    ddN[0], ddN[1] = 0.5 * (4.0 - 6.0 * t), 0.5 * (-10.0 + 18.0 * t)
+    ddN[2], ddN[3] = 0.5 * (8.0 - 18.0 * t), 0.5 * (-2.0 + 6.0 * t)
+    _fold(N, has_prev, has_next)
+    _fold(dN, has_prev, has_next)
+    _fold(ddN, has_prev, has_next)
+
+
+@njit(cache=True)
+def _curve(M, f, out):
+    """out (3,) = sum_k f[k] M[k]."""
+    for j in range(3):
+        out[j] = f[0] * M[0, j] + f[1] * M[1, j] + f[2] * M[2, j] + f[3] * M[3, j]
+
+
+@njit(cache=True)
+def _project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2):
+    """Closest point of the master curve to p: t* in [0, 1], whether the
+    unconstrained minimum lies beyond an end, and |u|; leaves u = p - c(t*),
+    c1 = c'(t*), c2 = c''(t*) and the shape functions at t* in the buffers."""
+    e0, e1, e2 = M[2, 0] - M[1, 0], M[2, 1] - M[1, 1], M[2, 2] - M[1, 2]
+    t = ((p[0] - M[1, 0]) * e0 + (p[1] - M[1, 1]) * e1 + (p[2] - M[1, 2]) * e2) \
+        / (e0 * e0 + e1 * e1 + e2 * e2)
+    t = min(max(t, 0.0), 1.0)
+    clamped = False
+    for _ in range(30):
+        _shape(t, has_prev, has_next, N, dN, ddN)
+        _curve(M, N, u)
+        _curve(M, dN, c1)
+        _curve(M, ddN, c2)
+        for j in range(3):
+            u[j] = p[j] - u[j]
+        a = c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]
+        f = -(u[0] * c1[0] + u[1] * c1[1] + u[2] * c1[2])
+        fp = a - (u[0] * c2[0] + u[1] * c2[1] + u[2] * c2[2])
+        step = -f / (fp if fp > 0.25 * a else a)
+        # a foot at an end up to round-off counts as inside (as for a chord)
+        clamped = (t == 0.0 and step < -1e-9) or (t == 1.0 and step > 1e-9)
+        new = min(max(t + step, 0.0), 1.0)
+        if abs(new - t) <= 1e-14:
+            break
+        t = new
+    d = np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    return t, clamped, d
+
+
+@njit(cache=True)
+def _coefficients(x0, x1, prev, nxt):
+    """Power-basis coefficients (n, 4, 3) of every master curve,
+    c(t) = C0 + C1 t + C2 t^2 + C3 t^3, for the search pass."""
+    n = x0.shape[0]
+    C = np.empty((n, 4, 3))
+    for B in range(n):
+        for j in range(3):
+            p1, p2 = x0[B, j], x1[B, j]
+            p0 = x0[prev[B], j] if prev[B] >= 0 else 2.0 * p1 - p2
+            p3 = x1[nxt[B], j] if nxt[B] >= 0 else 2.0 * p2 - p1
+            C[B, 0, j] = p1
+            C[B, 1, j] = 0.5 * (p2 - p0)
+            C[B, 2, j] = 0.5 * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3)
+            C[B, 3, j] = 0.5 * (-p0 + 3.0 * p1 - 3.0 * p2 + p3)
+    return C
+
+
+@njit(cache=True)
+def _search_distance(px, py, pz, C):
+    """Distance from (px, py, pz) to the master curve with coefficients C
+    (4, 3) and whether its closest point is clamped to an end: a few Newton
+    steps from the chord projection (the distance is stationary in t, so a
+    loose t is an accurate distance); scalar arithmetic."""
+    ex = C[1, 0] + C[2, 0] + C[3, 0]
+    ey = C[1, 1] + C[2, 1] + C[3, 1]
+    ez = C[1, 2] + C[2, 2] + C[3, 2]
+    t = ((px - C[0, 0]) * ex + (py - C[0, 1]) * ey + (pz - C[0, 2]) * ez) \
+        / (ex * ex + ey * ey + ez * ez)
+    t = min(max(t, 0.0), 1.0)
+    clamped = False
+    ux = uy = uz = 0.0
+    for _ in range(12):
+        ux = px - (C[0, 0] + t * (C[1, 0] + t * (C[2, 0] + t * C[3, 0])))
+        uy = py - (C[0, 1] + t * (C[1, 1] + t * (C[2, 1] + t * C[3, 1])))
+        uz = pz - (C[0, 2] + t * (C[1, 2] + t * (C[2, 2] + t * C[3, 2])))
+        dx = C[1, 0] + t * (2.0 * C[2, 0] + 3.0 * t * C[3, 0])
+        dy = C[1, 1] + t * (2.0 * C[2, 1] + 3.0 * t * C[3, 1])
+        dz = C[1, 2] + t * (2.0 * C[2, 2] + 3.0 * t * C[3, 2])
+        a = dx * dx + dy * dy + dz * dz
+        fp = a - (ux * (2.0 * C[2, 0] + 6.0 * t * C[3, 0]) + uy * (2.0 * C[2, 1] + 6.0 * t * C[3, 1])
+                  + uz * (2.0 * C[2, 2] + 6.0 * t * C[3, 2]))
+        step = (ux * dx + uy * dy + uz * dz) / (fp if fp > 0.25 * a else a)
+        clamped = (t == 0.0 and step < -1e-9) or (t == 1.0 and step > 1e-9)
+        new = min(max(t + step, 0.0), 1.0)
+        if abs(new - t) <= 1e-9:
+            break
+        t = new
     return np.sqrt(ux * ux + uy * uy + uz * uz), clamped
 
 
 @njit(cache=True)
-def _gauss_point(xi, a0, a1, b0, b1, R, W, k, g0, tangent, perm, grad, hess, stats, s, c, dF,
-                 g_prev, c_dt):
-    """Energy of the Gauss point at xi on A against segment B, weight W; adds
-    its gradient / tangent into the pair's slots through ``perm``.  c_dt > 0:
-    normal damping c/dt against the gap g_prev at the start of the increment."""
-    p = (1.0 - xi) * a0 + xi * a1
-    eta, clamped, u, d = _project(p, b0, b1)
+def _chord_distance(px, py, pz, b0, b1):
+    """Distance from (px, py, pz) to the chord (b0, b1); scalar arithmetic."""
+    ex, ey, ez = b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]
+    qx, qy, qz = px - b0[0], py - b0[1], pz - b0[2]
+    eta = (qx * ex + qy * ey + qz * ez) / (ex * ex + ey * ey + ez * ez)
+    eta = min(max(eta, 0.0), 1.0)
+    ux, uy, uz = qx - eta * ex, qy - eta * ey, qz - eta * ez
+    return np.sqrt(ux * ux + uy * uy + uz * uz)
+
+
+@njit(cache=True)
+def _segment_distance(a0, a1, b0, b1):
+    """Smallest distance between the segments (a0, a1) and (b0, b1) (the
+    clamped closest-point parameters of Ericson, Real-Time Collision
+    Detection, 5.1.9); scalar arithmetic."""
+    d1x, d1y, d1z = a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2]
+    d2x, d2y, d2z = b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]
+    rx, ry, rz = a0[0] - b0[0], a0[1] - b0[1], a0[2] - b0[2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    c = d1x * rx + d1y * ry + d1z * rz
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    denom = a * e - b * b
+    s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 1e-14 * a * e else 0.0
+    t = (b * s + f) / e
+    if t < 0.0:
+        t, s = 0.0, min(max(-c / a, 0.0), 1.0)
+    elif t > 1.0:
+        t, s = 1.0, min(max((b - c) / a, 0.0), 1.0)
+    ux = rx + s * d1x - t * d2x
+    uy = ry + s * d1y - t * d2y
+    uz = rz + s * d1z - t * d2z
+    return np.sqrt(ux * ux + uy * uy + uz * uz)
+
+
+@njit(cache=True)
+def _master(B, x0, x1, prev, nxt, M):
+    """Fill the master points of segment B; returns (has_prev, has_next)."""
+    has_prev, has_next = prev[B] >= 0, nxt[B] >= 0
+    for j in range(3):
+        M[0, j] = x0[prev[B], j] if has_prev else x0[B, j]
+        M[1, j] = x0[B, j]
+        M[2, j] = x1[B, j]
+        M[3, j] = x1[nxt[B], j] if has_next else x1[B, j]
+    return has_prev, has_next
+
+
+@njit(cache=True)
+def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, hess, stats,
+                 buf, g_prev, c_dt):
+    """Energy of the slave Gauss point at xi on (a0, a1) against the master
+    curve M, weight W; adds its gradient / tangent into the pair's 18 slots.
+    c_dt > 0: normal damping c/dt against the gap g_prev of the increment's start."""
+    N, dN, ddN, u, c1, c2, p, s, b, dF = buf
+    for j in range(3):
+        p[j] = (1.0 - xi) * a0[j] + xi * a1[j]
+    t, clamped, d = _project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2)
     g = d - R
     if g >= g0 or d < 1e-14 * R:
         return 0.0
-    e = b1 - b0
-    L2 = e @ e
     phi, dphi, ddphi = _law(g, k, g0)
     if c_dt > 0.0:
         ramp = ddphi / k
@@ -97,26 +251,28 @@ def _gauss_point(xi, a0, a1, b0, b1, R, W, k, g0, tangent, perm, grad, hess, sta
         ddphi += c_dt * (ramp + slope * (g - g_prev))
     stats[1] += 1.0
     stats[2] += -W * dphi                          # normal force carried
-    s[0], s[1], s[2], s[3] = 1.0 - xi, xi, -(1.0 - eta), -eta
-    for a in range(4):
+    s[0], s[1] = 1.0 - xi, xi
+    for m in range(4):
+        s[2 + m] = -N[m]
+    for a in range(SLOTS):
         for j in range(3):
             dF[3 * a + j] = s[a] * u[j]
-    for j in range(12):
-        grad[perm[j]] += W * dphi * dF[j] / d
-    if tangent:
-        for a in range(4):
-            for j in range(3):
-                c[3 * a + j] = s[a] * e[j]
+    for i in range(3 * SLOTS):
+        grad[i] += W * dphi * dF[i] / d
+    if not tangent:
+        return W * phi
+    Ftt = (c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]) \
+        - (u[0] * c2[0] + u[1] * c2[1] + u[2] * c2[2])
+    for a in range(SLOTS):
         for j in range(3):
-            c[6 + j] -= u[j]
-            c[9 + j] += u[j]
-        for i in range(12):
-            for j in range(12):
-                hF = s[i // 3] * s[j // 3] if i % 3 == j % 3 else 0.0
-                if not clamped:
-                    hF -= c[i] * c[j] / L2
-                dd = hF / d - dF[i] * dF[j] / d**3                      # hess of d
-                hess[perm[i], perm[j]] += W * (ddphi * dF[i] * dF[j] / (d * d) + dphi * dd)
+            b[3 * a + j] = s[a] * c1[j] + (dN[a - 2] * u[j] if a >= 2 else 0.0)
+    for i in range(3 * SLOTS):
+        for j in range(3 * SLOTS):
+            hF = s[i // 3] * s[j // 3] if i % 3 == j % 3 else 0.0
+            if not clamped:
+                hF -= b[i] * b[j] / Ftt
+            dd = hF / d - dF[i] * dF[j] / d**3                      # hess of d
+            hess[i, j] += W * (ddphi * dF[i] * dF[j] / (d * d) + dphi * dd)
     return W * phi
 
 
@@ -128,22 +284,12 @@ def _points(length, diameter, per_diameter, least):
 
 
 @njit(cache=True)
-def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least, k, g0,
-               tangent, x0p, x1p, c_dt):
-    """Slave Gauss points against their master segments.  The slave of a pair
-    is the segment of lower ``rank`` (ranks are per yarn, so one yarn is the
-    slave of another everywhere and no contact is counted from both sides;
-    within one yarn the lower index), and each slave Gauss point interacts
-    with the one master of smallest gap, so a point facing the joint of two
-    master segments is not counted twice either."""
+def _masters_of_slaves(pairs, rank, nseg):
+    """CSR of the masters of every slave segment: the slave of a pair is the
+    segment of lower ``rank`` (ranks are per yarn, so one yarn is the slave of
+    another everywhere and no contact is counted from both sides; within one
+    yarn the lower index)."""
     m = pairs.shape[0]
-    nseg = x0.shape[0]
-    energy = 0.0
-    stats = np.array([np.inf, 0.0, 0.0])            # min gap, active points, total force
-    seg_gap = np.full(nseg, np.inf)                 # smallest gap seen by each segment
-    direct = np.arange(12)
-    swapped = np.concatenate((np.arange(6, 12), np.arange(6)))
-    # masters of every slave segment (CSR): master, pair index, slave is pairs[n, 0]
     slave_first = np.empty(m, np.bool_)
     count = np.zeros(nseg + 1, np.int64)
     for n in range(m):
@@ -158,6 +304,34 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
         a, b = (pairs[n, 0], pairs[n, 1]) if slave_first[n] else (pairs[n, 1], pairs[n, 0])
         master[fill[a]], index[fill[a]] = b, n
         fill[a] += 1
+    return start, master, index
+
+
+@njit(cache=True)
+def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, per_diameter,
+               least, k, g0, tangent, x0p, x1p, c_dt):
+    """Slave Gauss points against their master curves; each slave Gauss point
+    interacts with the one master of smallest gap."""
+    nseg = x0.shape[0]
+    stats = np.array([np.inf, 0.0, 0.0])            # min gap, active points, total force
+    seg_gap = np.full(nseg, np.inf)                 # smallest gap seen by each segment
+    start, master, index = _masters_of_slaves(pairs, rank, nseg)
+    C = _coefficients(x0, x1, prev, nxt)
+    # most candidates are out of reach: one segment-segment distance rules them out
+    near = np.empty(master.shape[0], np.bool_)
+    for A in range(nseg):
+        for t in range(start[A], start[A + 1]):
+            B = master[t]
+            gap = _segment_distance(x0[A], x1[A], x0[B], x1[B]) - radius[A] - radius[B]
+            near[t] = gap - bulge[B] < g0
+            if not near[t]:
+                seg_gap[A] = min(seg_gap[A], gap)
+                seg_gap[B] = min(seg_gap[B], gap)
+                stats[0] = min(stats[0], gap)
+    M = np.empty((4, 3))
+    buf = (np.empty(4), np.empty(4), np.empty(4), np.empty(3), np.empty(3), np.empty(3),
+           np.empty(3), np.empty(SLOTS), np.empty(3 * SLOTS), np.empty(3 * SLOTS))
+    N, dN, ddN, u, c1, c2, p = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
     # pass 1: the master of every slave Gauss point within reach (no allocation)
     hits_A = np.empty(nseg * MAX_ORDER, np.int64)
     hits_q = np.empty(nseg * MAX_ORDER, np.int64)
@@ -170,18 +344,20 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
         a0, a1 = x0[A], x1[A]
         for q in range(nq):
             xi = XI[nq, q]
-            px = (1.0 - xi) * a0[0] + xi * a1[0]
-            py = (1.0 - xi) * a0[1] + xi * a1[1]
-            pz = (1.0 - xi) * a0[2] + xi * a1[2]
-            # prefer masters the point projects inside: across the joint of two
-            # collinear master segments that keeps the energy C2 (the vertex
-            # distance of a clamped projection only serves kinks and yarn ends)
+            for j in range(3):
+                p[j] = (1.0 - xi) * a0[j] + xi * a1[j]
             best, best_gap, best_inside = -1, np.inf, False
             for t in range(start[A], start[A + 1]):
+                if not near[t]:
+                    continue
                 B = master[t]
-                d, clamped = _gap_to(px, py, pz, x0[B], x1[B])
-                gap = d - radius[A] - radius[B]
-                inside = not clamped
+                R = radius[A] + radius[B]
+                # the curve lies within ``bulge`` of its chord: far masters cost one distance
+                gap = _chord_distance(p[0], p[1], p[2], x0[B], x1[B]) - R
+                inside = False
+                if gap - bulge[B] < g0:
+                    d, clamped = _search_distance(p[0], p[1], p[2], C[B])
+                    gap, inside = d - R, not clamped
                 if (inside and not best_inside) or (inside == best_inside and gap < best_gap):
                     best, best_gap, best_inside = t, gap, inside
             if best_gap < stats[0]:
@@ -192,40 +368,46 @@ def _all_pairs(x0, x1, radius, length, rank, pairs, XI, WTS, per_diameter, least
             if best_gap < g0:
                 hits_A[nhits], hits_q[nhits], hits_t[nhits] = A, q, best
                 nhits += 1
-    # compact numbering of the pairs that carry force
-    slot = np.full(m, -1, np.int64)
+    # compact numbering of the (slave, master) pairs that carry force
+    slot = np.full(pairs.shape[0], -1, np.int64)
     active = 0
     for h in range(nhits):
         n = index[hits_t[h]]
         if slot[n] < 0:
             slot[n] = active
             active += 1
-    used = np.empty(active, np.int64)
-    for n in range(m):
-        if slot[n] >= 0:
-            used[slot[n]] = n
-    grads = np.zeros((active, 12))
-    hess = np.zeros((active if tangent else 1, 12, 12))
+    used = np.empty((active, 2), np.int64)
+    ends = np.empty((active, SLOTS), np.int64)       # segment end 2 i + e of every slot
+    grads = np.zeros((active, 3 * SLOTS))
+    hess = np.zeros((active if tangent else 1, 3 * SLOTS, 3 * SLOTS))
+    for h in range(nhits):
+        A, B = hits_A[h], master[hits_t[h]]
+        m = slot[index[hits_t[h]]]
+        used[m, 0], used[m, 1] = A, B
+        ends[m, 0], ends[m, 1] = 2 * A, 2 * A + 1
+        ends[m, 2] = 2 * prev[B] if prev[B] >= 0 else 2 * B
+        ends[m, 3], ends[m, 4] = 2 * B, 2 * B + 1
+        ends[m, 5] = 2 * nxt[B] + 1 if nxt[B] >= 0 else 2 * B + 1
     # pass 2: their energy, gradient and tangent
-    s, c, dF = np.empty(4), np.empty(12), np.empty(12)
+    energy = 0.0
+    Mp = np.empty((4, 3))
     for h in range(nhits):
         A, q, t = hits_A[h], hits_q[h], hits_t[h]
-        B, n = master[t], index[t]
+        B, m = master[t], slot[index[t]]
         nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
-        H = hess[slot[n]] if tangent else hess[0]
         xi = XI[nq, q]
+        R = radius[A] + radius[B]
         g_prev = 0.0
         if c_dt > 0.0:       # the same slave point against the same master, a step ago
-            pp = (1.0 - xi) * x0p[A] + xi * x1p[A]
-            g_prev = _gap_to(pp[0], pp[1], pp[2], x0p[B], x1p[B])[0] - radius[A] - radius[B]
-        energy += _gauss_point(xi, x0[A], x1[A], x0[B], x1[B], radius[A] + radius[B],
-                               WTS[nq, q] * length[A], k, g0, tangent,
-                               direct if slave_first[n] else swapped, grads[slot[n]], H, stats,
-                               s, c, dF, g_prev, c_dt)
-    return energy, used, grads, hess, stats, seg_gap
-
-
-MAX_ORDER = 48
+            has_prev, has_next = _master(B, x0p, x1p, prev, nxt, Mp)
+            for j in range(3):
+                p[j] = (1.0 - xi) * x0p[A, j] + xi * x1p[A, j]
+            g_prev = _project(p, Mp, has_prev, has_next, N, dN, ddN, u, c1, c2)[2] - R
+        has_prev, has_next = _master(B, x0, x1, prev, nxt, M)
+        energy += _gauss_point(xi, x0[A], x1[A], M, has_prev, has_next, R,
+                               WTS[nq, q] * length[A], k, g0, tangent, grads[m],
+                               hess[m] if tangent else hess[0], stats, buf, g_prev, c_dt)
+    return energy, used, ends, grads, hess, stats, seg_gap
 
 
 def _gauss_table():
@@ -241,32 +423,68 @@ def _gauss_table():
 _XI, _WTS = _gauss_table()
 
 
+def neighbours(x0, x1, rod, s_mid, order=None):
+    """prev, next (n,): the adjacent segment along the same rod whose end
+    meets this one (-1 at a yarn end or a gap), from the order in arclength
+    (``order`` = np.lexsort((s_mid, rod)), if known)."""
+    n = x0.shape[0]
+    prev, nxt = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
+    order = np.lexsort((s_mid, rod)) if order is None else order
+    a, b = order[:-1], order[1:]
+    h = np.minimum(np.linalg.norm(x1[a] - x0[a], axis=1), np.linalg.norm(x1[b] - x0[b], axis=1))
+    joined = (rod[a] == rod[b]) & (np.linalg.norm(x1[a] - x0[b], axis=1) <= 1e-9 * h)
+    nxt[a[joined]], prev[b[joined]] = b[joined], a[joined]
+    return prev, nxt
+
+
+def bulge(x0, x1, prev, nxt):
+    """How far each master curve strays from its chord at most (n,):
+    c(t) - chord(t) = -t(1-t)/2 [(1-t) D1 + t D2], D the second differences
+    at the segment's ends (zero at yarn ends), so |.| <= max(|D1|, |D2|)/8."""
+    has_prev, has_next = prev >= 0, nxt >= 0
+    D1 = np.where(has_prev[:, None], x0[np.where(has_prev, prev, 0)] - 2 * x0 + x1, 0.0)
+    D2 = np.where(has_next[:, None], x0 - 2 * x1 + x1[np.where(has_next, nxt, 0)], 0.0)
+    return 0.125 * np.maximum(np.linalg.norm(D1, axis=1), np.linalg.norm(D2, axis=1))
+
+
 def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=True,
-                length=None, rank=None, previous=None, damping_rate=0.0):
-    """Contact energy, the pairs that carry force (k, 2), their gradients
-    (k, 12) and Hessians (k, 12, 12) in the slots (x0[i], x1[i], x0[j], x1[j])
-    of each pair (i, j), statistics (min gap, active Gauss points, total
-    normal force) and the smallest gap seen by each segment (n,) (inf where
-    none of its Gauss points, or none facing it, had a candidate).
+                length=None, rank=None, previous=None, damping_rate=0.0, prev=None, nxt=None,
+                bulges=None):
+    """Contact of candidate segment pairs.
+
+    Returns the energy; the (slave, master) pairs that carry force (k, 2); the
+    segment ends (k, 6) of each pair's slots, 2 i + e for end e of segment i
+    (slave a0, a1, master M0..M3); gradients (k, 18) and Hessians
+    (k, 18, 18) in those slots; statistics (min gap, active Gauss points,
+    total normal force); and the smallest gap seen by each segment (n,) (inf
+    where it had no candidate; exact within the law's reach, the chord
+    distance beyond it).
 
     x0, x1 : (n, 3) segment ends; radius : (n,); length : (n,) arclength each
     segment stands for (default its chord); per_diameter, least : Gauss
     points per yarn diameter and at least per segment (at most 48); rank :
     (n,) slave priority (default all equal: the lower index is the slave);
     previous : (x0, x1) at the start of the increment and damping_rate = c/dt
-    (line load per gap change) for normal damping (see the module docstring).
+    (line load per gap change) for normal damping (see the module docstring);
+    prev, nxt : (n,) neighbouring segments (default: no neighbours, every
+    master a straight chord); bulges : :func:`bulge` of them, if known.
     """
     x0 = np.ascontiguousarray(x0, dtype=float)
     x1 = np.ascontiguousarray(x1, dtype=float)
+    n = x0.shape[0]
     length = np.linalg.norm(x1 - x0, axis=1) if length is None else np.asarray(length, float)
-    rank = np.zeros(x0.shape[0], np.int64) if rank is None else np.asarray(rank, np.int64)
+    rank = np.zeros(n, np.int64) if rank is None else np.asarray(rank, np.int64)
+    prev = np.full(n, -1, np.int64) if prev is None else np.asarray(prev, np.int64)
+    nxt = np.full(n, -1, np.int64) if nxt is None else np.asarray(nxt, np.int64)
     pairs = np.ascontiguousarray(pairs, dtype=np.int64)
     damping_rate = float(damping_rate)
     if damping_rate > 0.0:
         x0p, x1p = (np.ascontiguousarray(v, dtype=float) for v in previous)
     else:
         x0p, x1p, damping_rate = x0, x1, 0.0
-    energy, used, grads, hess, stats, seg_gap = _all_pairs(
-        x0, x1, np.asarray(radius, float), length, rank, pairs, _XI, _WTS, float(per_diameter),
-        int(least), float(law.k), float(law.g0), bool(tangent), x0p, x1p, damping_rate)
-    return energy, pairs[used], grads, (hess if tangent else None), stats, seg_gap
+    energy, used, ends, grads, hess, stats, seg_gap = _all_pairs(
+        x0, x1, prev, nxt, bulge(x0, x1, prev, nxt) if bulges is None else bulges,
+        np.asarray(radius, float), length, rank,
+        pairs, _XI, _WTS, float(per_diameter), int(least), float(law.k), float(law.g0),
+        bool(tangent), x0p, x1p, damping_rate)
+    return energy, used, ends, grads, (hess if tangent else None), stats, seg_gap

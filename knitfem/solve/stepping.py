@@ -32,6 +32,7 @@ class Step:
     history: list = field(default_factory=list)  # relative residuals, last sub-step
     substeps: int = 1
     roundoff_limited: bool = False               # stopped at the residual's noise floor
+    report: object = None                        # the model's account of the state (e.g. contact)
 
 
 def load_stepping(problem_at, x0, loads, *, start=0.0, max_halvings=8, **newton_options):

@@ -124,3 +124,22 @@ def tip_position(model, state, rod=0):
 
 __all__ = ["cantilever_end_moment", "cantilever_tip_load", "column", "greenhill_shaft",
            "bend45", "critical_load", "closed_form", "tip_position", "stiff_section"]
+
+
+def yarn_on_yarn(line_load, factor=None, diameter=1.0, E=1e3):
+    """A yarn (length 9.5, 17 elements) lying on a parallel clamped yarn
+    (length 10, 13 elements: non-matching meshes), pressed by a uniform line
+    load (its weight under a matching gravity), free only to move down and
+    bend; penalty contact with ``factor`` (default the library's).  It starts
+    inside the law's reach (gap 0.049 d < g0), so there is no free fall."""
+    section = Section.circle(diameter, E=E, nu=0.3, density=1.0)
+    model = BeamModel()
+    base = model.add_rod(Rod.straight((0, 0, 0), (1, 0, 0), 10.0, 13, section))
+    top = model.add_rod(Rod.straight((0.25, 0, diameter * 1.049), (1, 0, 0), 9.5, 17, section))
+    for i in range(14):
+        model.clamp(base, i)
+    for i in range(18):
+        model.fix(top, i, "ux uy rx rz")
+    model.gravity((0, 0, -line_load / section.line_density))
+    model.contact(**({} if factor is None else {"factor": factor}))
+    return model
