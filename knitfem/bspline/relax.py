@@ -7,7 +7,9 @@
   removes energy far faster than viscosity).  The time
   step is 0.7 of the stability limit 2 / omega_max, omega_max^2 the largest
   eigenvalue of M^-1 K estimated by power iteration with Hessian-vector
-  products from gradient differences.
+  products from gradient differences; if the energy doubles (the stiffness
+  grew, the step went unstable) it returns to its last checkpoint with half
+  the step.
 * ``relax_static`` - the faster, Newton-type option: L-BFGS (scipy) on the
   total energy with the exact gradient.
 
@@ -21,6 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import minimize
+
+MAX_HALVINGS = 8     # of the explicit time step, when the dynamics goes unstable
 
 
 class RelaxationError(RuntimeError):
@@ -41,6 +45,7 @@ class Relaxed:
     energy: float
     method: str
     history: list = field(default_factory=list, repr=False)
+    time_step: float = float("nan")     # dynamic relaxation: the explicit step it ended with
 
 
 def _residual(model, y):
@@ -109,21 +114,34 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=max_steps, desc="dynamic relaxation", unit="step", leave=False)
+    # the stiffness grows as the yarn bends, so the step estimated at the start can
+    # turn unstable later: damped dynamics never gains energy, so a state whose
+    # energy has doubled since the last checkpoint sends us back there with half the step
+    checkpoint, E_checkpoint, halvings = y.copy(), np.inf, 0
     try:
         for step in range(1, max_steps + 1):
-            E, g, ref = model.reduced_energy(y)
+            with np.errstate(all="ignore"):
+                E, g, ref = model.reduced_energy(y)
             if step % check_every == 0:
                 r = float(np.linalg.norm(g) / max(ref, 1e-300))
                 history.append(r)
                 if bar is not None:
                     bar.update(check_every)
                     bar.set_postfix(residual=f"{r:.1e}")
-                if not np.isfinite(r):
-                    raise RelaxationError(f"dynamic relaxation diverged at step {step} "
-                                          f"(time step {dt:.3g} too large?)", y, history)
+                if not (np.isfinite(r) and np.isfinite(E)) or E > E_checkpoint + abs(E_checkpoint):
+                    halvings += 1
+                    if halvings > MAX_HALVINGS:
+                        raise RelaxationError(f"dynamic relaxation diverged at step {step} even "
+                                              f"with the time step halved {MAX_HALVINGS} times "
+                                              f"(now {dt:.3g})", checkpoint, history)
+                    y, v, dt = checkpoint.copy(), np.zeros_like(v), 0.5 * dt
+                    ke = ke_last = 0.0
+                    continue
+                if E <= E_checkpoint:
+                    checkpoint, E_checkpoint = y.copy(), E
                 # at rest, not passing through equilibrium (ke: of the step that led here)
                 if r <= rtol and ke <= ke_rtol * max(abs(E), ref * length):
-                    return Relaxed(y, step, r, E, "dynamic", history)
+                    return Relaxed(y, step, r, E, "dynamic", history, dt)
             f = -g - damping * m * v
             if dissipative_contact:
                 f += model.contact_damping(y, v)
