@@ -40,10 +40,11 @@ bench: $(STAMP)
 	$(VENV)/bin/python studies/bench_popup.py --out $(OUT)/bench_popup
 	$(VENV)/bin/python studies/bench_contact.py --out $(OUT)/bench_contact
 
-# optional: knitfem vs PyElastica on the S-rod (own venv, pyelastica is not a dependency)
+# optional: knitfem vs PyElastica on the S-rod (the `elastica` extra, in its own venv so
+# that PyElastica's pins never touch the main one)
 bench-elastica: $(STAMP)
 	test -x .venv-elastica/bin/python || $(PYTHON) -m venv .venv-elastica
-	.venv-elastica/bin/python -m pip install --quiet pyelastica -e .
+	.venv-elastica/bin/python -m pip install --quiet -e '.[elastica]'
 	NUMBA_CACHE_DIR=.numba-elastica .venv-elastica/bin/python studies/bench_pyelastica.py \
 		--out $(OUT)/bench_pyelastica
 
