@@ -8,7 +8,8 @@ from knitfem import BeamModel, Rod, Section
 from knitfem.beam.rotation import rotate_spatially
 from knitfem.beam.parametric import ParametricProblem
 from knitfem.contact import PenaltyLaw, SegmentContact, brute_force_pairs, candidate_pairs
-from knitfem.contact.narrow import bulge, neighbours, pair_forces
+from knitfem.contact.master import bulge, neighbours
+from knitfem.contact.narrow import pair_forces
 from knitfem.solve.continuation import continuation
 from knitfem.verify.cases import yarn_on_yarn
 

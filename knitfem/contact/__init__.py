@@ -12,7 +12,8 @@ import numpy as np
 
 from .broad import brute_force_pairs, candidate_pairs
 from .law import DEFAULT_FACTOR, DEFAULT_REGULARISATION, PenaltyLaw
-from .narrow import bulge, neighbours, pair_forces
+from .master import bulge, neighbours
+from .narrow import pair_forces
 
 __all__ = ["ContactReport", "PenaltyLaw", "SegmentContact", "brute_force_pairs",
            "candidate_pairs", "pair_forces", "DEFAULT_FACTOR", "DEFAULT_REGULARISATION"]

@@ -48,6 +48,9 @@ Compiled with numba: the loop over pairs and Gauss points is the hot spot.
 import numpy as np
 from numba import njit
 
+from .master import (bulge, chord_distance, coefficients, gather, project, search_distance,
+                     segment_distance)
+
 MAX_ORDER = 48
 SLOTS = 6                    # slave a0, a1; master M0..M3
 
@@ -64,173 +67,6 @@ def _law(g, k, g0):
 
 
 @njit(cache=True)
-def _fold(f, has_prev, has_next):
-    """Fold the ghost points of a yarn end (straight continuation) into the inner two."""
-    if not has_prev:                     # M0 = 2 M1 - M2
-        f[1] += 2.0 * f[0]
-        f[2] -= f[0]
-        f[0] = 0.0
-    if not has_next:                     # M3 = 2 M2 - M1
-        f[2] += 2.0 * f[3]
-        f[1] -= f[3]
-        f[3] = 0.0
-
-
-@njit(cache=True)
-def _shape(t, has_prev, has_next, N, dN, ddN):
-    """Catmull-Rom shape functions of the four master points and their first
-    two derivatives in t."""
-    t2, t3 = t * t, t * t * t
-    N[0], N[1] = 0.5 * (-t + 2.0 * t2 - t3), 0.5 * (2.0 - 5.0 * t2 + 3.0 * t3)
-    N[2], N[3] = 0.5 * (t + 4.0 * t2 - 3.0 * t3), 0.5 * (-t2 + t3)
-    dN[0], dN[1] = 0.5 * (-1.0 + 4.0 * t - 3.0 * t2), 0.5 * (-10.0 * t + 9.0 * t2)
-    dN[2], dN[3] = 0.5 * (1.0 + 8.0 * t - 9.0 * t2), 0.5 * (-2.0 * t + 3.0 * t2)
-    ddN[0], ddN[1] = 0.5 * (4.0 - 6.0 * t), 0.5 * (-10.0 + 18.0 * t)
-    ddN[2], ddN[3] = 0.5 * (8.0 - 18.0 * t), 0.5 * (-2.0 + 6.0 * t)
-    _fold(N, has_prev, has_next)
-    _fold(dN, has_prev, has_next)
-    _fold(ddN, has_prev, has_next)
-
-
-@njit(cache=True)
-def _curve(M, f, out):
-    """out (3,) = sum_k f[k] M[k]."""
-    for j in range(3):
-        out[j] = f[0] * M[0, j] + f[1] * M[1, j] + f[2] * M[2, j] + f[3] * M[3, j]
-
-
-@njit(cache=True)
-def _project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2):
-    """Closest point of the master curve to p: t* in [0, 1], whether the
-    unconstrained minimum lies beyond an end, and |u|; leaves u = p - c(t*),
-    c1 = c'(t*), c2 = c''(t*) and the shape functions at t* in the buffers."""
-    e0, e1, e2 = M[2, 0] - M[1, 0], M[2, 1] - M[1, 1], M[2, 2] - M[1, 2]
-    t = ((p[0] - M[1, 0]) * e0 + (p[1] - M[1, 1]) * e1 + (p[2] - M[1, 2]) * e2) \
-        / (e0 * e0 + e1 * e1 + e2 * e2)
-    t = min(max(t, 0.0), 1.0)
-    clamped = False
-    for _ in range(30):
-        _shape(t, has_prev, has_next, N, dN, ddN)
-        _curve(M, N, u)
-        _curve(M, dN, c1)
-        _curve(M, ddN, c2)
-        for j in range(3):
-            u[j] = p[j] - u[j]
-        a = c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]
-        f = -(u[0] * c1[0] + u[1] * c1[1] + u[2] * c1[2])
-        fp = a - (u[0] * c2[0] + u[1] * c2[1] + u[2] * c2[2])
-        step = -f / (fp if fp > 0.25 * a else a)
-        # a foot at an end up to round-off counts as inside (as for a chord)
-        clamped = (t == 0.0 and step < -1e-9) or (t == 1.0 and step > 1e-9)
-        new = min(max(t + step, 0.0), 1.0)
-        if abs(new - t) <= 1e-14:
-            break
-        t = new
-    d = np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
-    return t, clamped, d
-
-
-@njit(cache=True)
-def _coefficients(x0, x1, prev, nxt):
-    """Power-basis coefficients (n, 4, 3) of every master curve,
-    c(t) = C0 + C1 t + C2 t^2 + C3 t^3, for the search pass."""
-    n = x0.shape[0]
-    C = np.empty((n, 4, 3))
-    for B in range(n):
-        for j in range(3):
-            p1, p2 = x0[B, j], x1[B, j]
-            p0 = x0[prev[B], j] if prev[B] >= 0 else 2.0 * p1 - p2
-            p3 = x1[nxt[B], j] if nxt[B] >= 0 else 2.0 * p2 - p1
-            C[B, 0, j] = p1
-            C[B, 1, j] = 0.5 * (p2 - p0)
-            C[B, 2, j] = 0.5 * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3)
-            C[B, 3, j] = 0.5 * (-p0 + 3.0 * p1 - 3.0 * p2 + p3)
-    return C
-
-
-@njit(cache=True)
-def _search_distance(px, py, pz, C):
-    """Distance from (px, py, pz) to the master curve with coefficients C
-    (4, 3) and whether its closest point is clamped to an end: a few Newton
-    steps from the chord projection (the distance is stationary in t, so a
-    loose t is an accurate distance); scalar arithmetic."""
-    ex = C[1, 0] + C[2, 0] + C[3, 0]
-    ey = C[1, 1] + C[2, 1] + C[3, 1]
-    ez = C[1, 2] + C[2, 2] + C[3, 2]
-    t = ((px - C[0, 0]) * ex + (py - C[0, 1]) * ey + (pz - C[0, 2]) * ez) \
-        / (ex * ex + ey * ey + ez * ez)
-    t = min(max(t, 0.0), 1.0)
-    clamped = False
-    ux = uy = uz = 0.0
-    for _ in range(12):
-        ux = px - (C[0, 0] + t * (C[1, 0] + t * (C[2, 0] + t * C[3, 0])))
-        uy = py - (C[0, 1] + t * (C[1, 1] + t * (C[2, 1] + t * C[3, 1])))
-        uz = pz - (C[0, 2] + t * (C[1, 2] + t * (C[2, 2] + t * C[3, 2])))
-        dx = C[1, 0] + t * (2.0 * C[2, 0] + 3.0 * t * C[3, 0])
-        dy = C[1, 1] + t * (2.0 * C[2, 1] + 3.0 * t * C[3, 1])
-        dz = C[1, 2] + t * (2.0 * C[2, 2] + 3.0 * t * C[3, 2])
-        a = dx * dx + dy * dy + dz * dz
-        fp = a - (ux * (2.0 * C[2, 0] + 6.0 * t * C[3, 0]) + uy * (2.0 * C[2, 1] + 6.0 * t * C[3, 1])
-                  + uz * (2.0 * C[2, 2] + 6.0 * t * C[3, 2]))
-        step = (ux * dx + uy * dy + uz * dz) / (fp if fp > 0.25 * a else a)
-        clamped = (t == 0.0 and step < -1e-9) or (t == 1.0 and step > 1e-9)
-        new = min(max(t + step, 0.0), 1.0)
-        if abs(new - t) <= 1e-9:
-            break
-        t = new
-    return np.sqrt(ux * ux + uy * uy + uz * uz), clamped
-
-
-@njit(cache=True)
-def _chord_distance(px, py, pz, b0, b1):
-    """Distance from (px, py, pz) to the chord (b0, b1); scalar arithmetic."""
-    ex, ey, ez = b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]
-    qx, qy, qz = px - b0[0], py - b0[1], pz - b0[2]
-    eta = (qx * ex + qy * ey + qz * ez) / (ex * ex + ey * ey + ez * ez)
-    eta = min(max(eta, 0.0), 1.0)
-    ux, uy, uz = qx - eta * ex, qy - eta * ey, qz - eta * ez
-    return np.sqrt(ux * ux + uy * uy + uz * uz)
-
-
-@njit(cache=True)
-def _segment_distance(a0, a1, b0, b1):
-    """Smallest distance between the segments (a0, a1) and (b0, b1) (the
-    clamped closest-point parameters of Ericson, Real-Time Collision
-    Detection, 5.1.9); scalar arithmetic."""
-    d1x, d1y, d1z = a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2]
-    d2x, d2y, d2z = b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]
-    rx, ry, rz = a0[0] - b0[0], a0[1] - b0[1], a0[2] - b0[2]
-    a = d1x * d1x + d1y * d1y + d1z * d1z
-    e = d2x * d2x + d2y * d2y + d2z * d2z
-    f = d2x * rx + d2y * ry + d2z * rz
-    c = d1x * rx + d1y * ry + d1z * rz
-    b = d1x * d2x + d1y * d2y + d1z * d2z
-    denom = a * e - b * b
-    s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 1e-14 * a * e else 0.0
-    t = (b * s + f) / e
-    if t < 0.0:
-        t, s = 0.0, min(max(-c / a, 0.0), 1.0)
-    elif t > 1.0:
-        t, s = 1.0, min(max((b - c) / a, 0.0), 1.0)
-    ux = rx + s * d1x - t * d2x
-    uy = ry + s * d1y - t * d2y
-    uz = rz + s * d1z - t * d2z
-    return np.sqrt(ux * ux + uy * uy + uz * uz)
-
-
-@njit(cache=True)
-def _master(B, x0, x1, prev, nxt, M):
-    """Fill the master points of segment B; returns (has_prev, has_next)."""
-    has_prev, has_next = prev[B] >= 0, nxt[B] >= 0
-    for j in range(3):
-        M[0, j] = x0[prev[B], j] if has_prev else x0[B, j]
-        M[1, j] = x0[B, j]
-        M[2, j] = x1[B, j]
-        M[3, j] = x1[nxt[B], j] if has_next else x1[B, j]
-    return has_prev, has_next
-
-
-@njit(cache=True)
 def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, hess, stats,
                  buf, g_prev, c_dt):
     """Energy of the slave Gauss point at xi on (a0, a1) against the master
@@ -239,7 +75,7 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, 
     N, dN, ddN, u, c1, c2, p, s, b, dF = buf
     for j in range(3):
         p[j] = (1.0 - xi) * a0[j] + xi * a1[j]
-    t, clamped, d = _project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2)
+    t, clamped, d = project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2)
     g = d - R
     if g >= g0 or d < 1e-14 * R:
         return 0.0
@@ -316,13 +152,13 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
     stats = np.array([np.inf, 0.0, 0.0])            # min gap, active points, total force
     seg_gap = np.full(nseg, np.inf)                 # smallest gap seen by each segment
     start, master, index = _masters_of_slaves(pairs, rank, nseg)
-    C = _coefficients(x0, x1, prev, nxt)
+    C = coefficients(x0, x1, prev, nxt)
     # most candidates are out of reach: one segment-segment distance rules them out
     near = np.empty(master.shape[0], np.bool_)
     for A in range(nseg):
         for t in range(start[A], start[A + 1]):
             B = master[t]
-            gap = _segment_distance(x0[A], x1[A], x0[B], x1[B]) - radius[A] - radius[B]
+            gap = segment_distance(x0[A], x1[A], x0[B], x1[B]) - radius[A] - radius[B]
             near[t] = gap - bulge[B] < g0
             if not near[t]:
                 seg_gap[A] = min(seg_gap[A], gap)
@@ -353,10 +189,10 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
                 B = master[t]
                 R = radius[A] + radius[B]
                 # the curve lies within ``bulge`` of its chord: far masters cost one distance
-                gap = _chord_distance(p[0], p[1], p[2], x0[B], x1[B]) - R
+                gap = chord_distance(p[0], p[1], p[2], x0[B], x1[B]) - R
                 inside = False
                 if gap - bulge[B] < g0:
-                    d, clamped = _search_distance(p[0], p[1], p[2], C[B])
+                    d, clamped = search_distance(p[0], p[1], p[2], C[B])
                     gap, inside = d - R, not clamped
                 if (inside and not best_inside) or (inside == best_inside and gap < best_gap):
                     best, best_gap, best_inside = t, gap, inside
@@ -399,11 +235,11 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
         R = radius[A] + radius[B]
         g_prev = 0.0
         if c_dt > 0.0:       # the same slave point against the same master, a step ago
-            has_prev, has_next = _master(B, x0p, x1p, prev, nxt, Mp)
+            has_prev, has_next = gather(B, x0p, x1p, prev, nxt, Mp)
             for j in range(3):
                 p[j] = (1.0 - xi) * x0p[A, j] + xi * x1p[A, j]
-            g_prev = _project(p, Mp, has_prev, has_next, N, dN, ddN, u, c1, c2)[2] - R
-        has_prev, has_next = _master(B, x0, x1, prev, nxt, M)
+            g_prev = project(p, Mp, has_prev, has_next, N, dN, ddN, u, c1, c2)[2] - R
+        has_prev, has_next = gather(B, x0, x1, prev, nxt, M)
         energy += _gauss_point(xi, x0[A], x1[A], M, has_prev, has_next, R,
                                WTS[nq, q] * length[A], k, g0, tangent, grads[m],
                                hess[m] if tangent else hess[0], stats, buf, g_prev, c_dt)
@@ -421,30 +257,6 @@ def _gauss_table():
 
 
 _XI, _WTS = _gauss_table()
-
-
-def neighbours(x0, x1, rod, s_mid, order=None):
-    """prev, next (n,): the adjacent segment along the same rod whose end
-    meets this one (-1 at a yarn end or a gap), from the order in arclength
-    (``order`` = np.lexsort((s_mid, rod)), if known)."""
-    n = x0.shape[0]
-    prev, nxt = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
-    order = np.lexsort((s_mid, rod)) if order is None else order
-    a, b = order[:-1], order[1:]
-    h = np.minimum(np.linalg.norm(x1[a] - x0[a], axis=1), np.linalg.norm(x1[b] - x0[b], axis=1))
-    joined = (rod[a] == rod[b]) & (np.linalg.norm(x1[a] - x0[b], axis=1) <= 1e-9 * h)
-    nxt[a[joined]], prev[b[joined]] = b[joined], a[joined]
-    return prev, nxt
-
-
-def bulge(x0, x1, prev, nxt):
-    """How far each master curve strays from its chord at most (n,):
-    c(t) - chord(t) = -t(1-t)/2 [(1-t) D1 + t D2], D the second differences
-    at the segment's ends (zero at yarn ends), so |.| <= max(|D1|, |D2|)/8."""
-    has_prev, has_next = prev >= 0, nxt >= 0
-    D1 = np.where(has_prev[:, None], x0[np.where(has_prev, prev, 0)] - 2 * x0 + x1, 0.0)
-    D2 = np.where(has_next[:, None], x0 - 2 * x1 + x1[np.where(has_next, nxt, 0)], 0.0)
-    return 0.125 * np.maximum(np.linalg.norm(D1, axis=1), np.linalg.norm(D2, axis=1))
 
 
 def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=True,
