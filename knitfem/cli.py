@@ -47,7 +47,8 @@ def _popup(args):
         Path(args.json).write_text(text)
     if not args.quiet:
         print(text if not args.json else
-              f"critical c/L = {summary['critical_c_over_L']}, elapsed {summary['elapsed_s']:.3f} s;"
+              f"critical c/L = {summary['critical_c_over_L']}, "
+              f"elapsed {summary['elapsed_s']:.3f} s;"
               f" wrote {args.json}")
     return 0
 

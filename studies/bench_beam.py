@@ -109,7 +109,8 @@ def assembly(sizes, repeat):
         t_tan, _ = median_time(lambda: model.internal_forces(state, free=free), repeat)
         rows.append({"elements": n, "residual_ms": 1e3 * t_res, "residual_tangent_ms": 1e3 * t_tan,
                      "us_per_element": 1e6 * t_tan / n})
-        print(f"  n={n:6d}  residual {1e3 * t_res:8.2f} ms   residual+tangent {1e3 * t_tan:8.2f} ms")
+        print(f"  n={n:6d}  residual {1e3 * t_res:8.2f} ms   "
+              f"residual+tangent {1e3 * t_tan:8.2f} ms")
     return rows
 
 
@@ -212,7 +213,8 @@ def markdown(conv, asm, newton, sweep, compile_s):
     lines += [f"| {r['elements']:.0e} | {r['residual_ms']:.2f} | {r['residual_tangent_ms']:.2f} | "
               f"{r['us_per_element']:.2f} |" for r in asm]
     lines += [""] + newton_markdown(newton, sweep)
-    lines += ["", f"Start-up, import + one small solve in a fresh process: {compile_s['cold_s']:.1f} s "
+    lines += ["", "Start-up, import + one small solve in a fresh process: "
+              f"{compile_s['cold_s']:.1f} s "
               f"with an empty numba cache (compilation), {compile_s['cached_s']:.1f} s cached."]
     return "\n".join(lines)
 

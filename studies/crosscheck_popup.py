@@ -115,12 +115,14 @@ def main():
     runs = [popup(SRod(gj_over_ei=GJ), c_to=C, c_step=0.05) for _ in range(3)]
     on_branch = runs[0]
     point["beam_continuation_0.95_to_0.6"] = {
-        "s": float(np.median([r.elapsed_s for r in runs])), "z_over_L": on_branch.samples[-1].max_abs_z_over_L,
+        "s": float(np.median([r.elapsed_s for r in runs])),
+        "z_over_L": on_branch.samples[-1].max_abs_z_over_L,
         "iterations": sum(p.iterations for _, b in on_branch.branches() for p in b.points)}
     newton_s = point["beam_newton_gj_0.667"]["s"]
     reference = point["beam_continuation_0.95_to_0.6"]["s"]
     print(f"relaxing the S-rod at c/L = {C} to a relative residual of 1e-6, medians "
-          f"(ratios to the beam's Newton solve at GJ/EI = 2/3 and to its continuation 0.95 -> 0.6):")
+          "(ratios to the beam's Newton solve at GJ/EI = 2/3 "
+          "and to its continuation 0.95 -> 0.6):")
     for k, v in point.items():
         if "failed" in v:
             print(f"  {k:30s} {v['failed']}")
@@ -129,14 +131,16 @@ def main():
               f"  {v['s'] / newton_s:6.1f} x  {v['s'] / reference:6.2f} x")
 
     fig, ax = plt.subplots(figsize=(7, 4.6))
-    for name, res, style in (("beam, GJ/EI = 1e-3", beam, "C0-"), ("beam, GJ/EI = 2/3", beam_23, "C0--")):
+    for name, res, style in (("beam, GJ/EI = 1e-3", beam, "C0-"),
+                             ("beam, GJ/EI = 2/3", beam_23, "C0--")):
         pts = [p for p in res.popped[0].points] if res.popped else []
         ax.plot([p.lam for p in res.planar.points if p.lam > res.critical_c_over_L] +
                 [p.lam for p in pts],
                 [0.0 for p in res.planar.points if p.lam > res.critical_c_over_L] +
                 [abs(signed_height(p.state)) / res.srod.length for p in pts], style, label=name)
     for n, marker in ((16, "s"), (32, "o"), (64, "^")):
-        ax.plot([s.c_over_L for s in yarn[n].samples], [s.max_abs_z_over_L for s in yarn[n].samples],
+        ax.plot([s.c_over_L for s in yarn[n].samples],
+                [s.max_abs_z_over_L for s in yarn[n].samples],
                 marker, color="C3", mfc="none" if n != 32 else "C3", ms=5,
                 label=f"B-spline model, {n} segments")
     ax.invert_xaxis()

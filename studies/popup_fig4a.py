@@ -29,7 +29,8 @@ def main():
           f"(c = {summary['critical_c_over_L'] * L:.2f} mm), solver {summary['elapsed_s']:.3f} s")
     for row in summary["branch"]:
         print(f"  c = {row['c_over_L'] * L:6.1f} mm  c/L = {row['c_over_L']:.4f}  "
-              f"max|z|/L = {row['max_abs_z_over_L']:.4f}  {'stable' if row['stable'] else 'UNSTABLE'}")
+              f"max|z|/L = {row['max_abs_z_over_L']:.4f}  "
+              f"{'stable' if row['stable'] else 'UNSTABLE'}")
     print(f"wrote {args.out}")
 
 

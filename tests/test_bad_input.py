@@ -30,16 +30,20 @@ def test_section_constructors_name_the_bad_parameter(call, match):
 
 
 @pytest.mark.parametrize("call,match", [
-    (lambda: Rod.straight((0, 0, 0), (1, 0, 0), -1.0, 4, SECTION), r"length must be finite and in \(0, inf\)"),
-    (lambda: Rod.straight((0, 0, 0), (1, 0, 0), 1.0, 0, SECTION), r"elements must be an integer >= 1"),
+    (lambda: Rod.straight((0, 0, 0), (1, 0, 0), -1.0, 4, SECTION),
+     r"length must be finite and in \(0, inf\)"),
+    (lambda: Rod.straight((0, 0, 0), (1, 0, 0), 1.0, 0, SECTION),
+     r"elements must be an integer >= 1"),
     (lambda: Rod.straight((0, 0, np.nan), (1, 0, 0), 1.0, 4, SECTION), r"start must be finite"),
     (lambda: Rod.straight((0, 0, 0), (0, 0, 0), 1.0, 4, SECTION), r"direction must be a non-zero"),
     (lambda: Rod.from_centerline([[0, 0, 0], [1, np.nan, 0]], SECTION), r"points contains NaN"),
     (lambda: Rod.from_centerline([[0, 0], [1, 0]], SECTION), r"points must have shape \(n, 3\)"),
     (lambda: Rod.from_centerline([[0, 0, 0], [0, 0, 0]], SECTION), r"zero-length element"),
-    (lambda: Rod.from_centerline([[0, 0, 0], [1, 0, 0]], SECTION, natural="bent"), r"natural must be"),
+    (lambda: Rod.from_centerline([[0, 0, 0], [1, 0, 0]], SECTION, natural="bent"),
+     r"natural must be"),
     (lambda: Rod.arc(-1.0, 1.0, 4, SECTION), r"radius must be finite and in \(0, inf\)"),
-    (lambda: Rod.straight((0, 0, 0), (1, 0, 0), 1.0, 4, "steel"), r"section must be a knitfem Section"),
+    (lambda: Rod.straight((0, 0, 0), (1, 0, 0), 1.0, 4, "steel"),
+     r"section must be a knitfem Section"),
 ])
 def test_rod_rejects_bad_geometry(call, match):
     with pytest.raises(ValueError, match=match):

@@ -228,7 +228,8 @@ def test_parallel_line_contact_carries_a_uniform_load_without_spikes():
     nodes = model.assembly.node_offset
     on_top = -fc.reshape(-1, 6)[nodes[1]:nodes[2], 2]     # contact force on the lying beam
     w = q * 9.5 / 17                                       # weight per element
-    assert np.allclose(on_top[1:-1], w, rtol=1e-6) and np.allclose(on_top[[0, -1]], w / 2, rtol=1e-6)
+    assert (np.allclose(on_top[1:-1], w, rtol=1e-6)
+            and np.allclose(on_top[[0, -1]], w / 2, rtol=1e-6))
     gap = state.x[nodes[1]:nodes[2], 2] - 2 * R
     assert np.ptp(gap) < 1e-9 and -gap.min() < 0.01 * 2 * R
     # the gap is where the law carries the weight per length: f(g) = q
@@ -393,8 +394,10 @@ def test_scene_without_close_segments_pays_nothing():
     (lambda: SegmentContact(PenaltyLaw(1.0, 0.1), [-0.1], [0], [0.0]), r"segment radii must be"),
     (lambda: SegmentContact(PenaltyLaw(1.0, 0.1), [0.1, 0.1], [0, 1], [0, 0]).evaluate(
         np.array([[0, 0, np.nan], [1, 1, 1.0]]), np.ones((2, 3))), r"NaN"),
-    (lambda: BeamModel().contact(damping=-1.0), r"contact damping must be finite and in \[0, inf\)"),
-    (lambda: BeamModel().contact(duration=0.0), r"contact duration must be finite and in \(0, inf\)"),
+    (lambda: BeamModel().contact(damping=-1.0),
+     r"contact damping must be finite and in \[0, inf\)"),
+    (lambda: BeamModel().contact(duration=0.0),
+     r"contact duration must be finite and in \(0, inf\)"),
 ])
 def test_bad_contact_input_is_refused(call, match):
     with pytest.raises(ValueError, match=match):

@@ -69,7 +69,8 @@ class Rod:
 
     def __post_init__(self):
         if not isinstance(self.section, Section):
-            raise ValueError(f"section must be a knitfem Section, got {type(self.section).__name__}")
+            raise ValueError("section must be a knitfem Section, got "
+                             f"{type(self.section).__name__}")
         self.s = np.asarray(self.s, dtype=float)
         n = self.s.shape[0] - 1
         if self.s.ndim != 1 or n < 1:

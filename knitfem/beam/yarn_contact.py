@@ -49,8 +49,8 @@ class BeamContact:
             return 0.0
         size = float(np.abs(x).max())
         active_length = self.report.active_pairs * float(self.length.max())
-        return float(self.segments.law.k * np.finfo(float).eps * size * np.sqrt(active_length
-                                                                                * self.length.max()))
+        return float(self.segments.law.k * np.finfo(float).eps * size
+                     * np.sqrt(active_length * self.length.max()))
 
     def _dofs(self, ends):
         """(m, 18) global dofs of the slots, from their segment ends (2 i + e)."""

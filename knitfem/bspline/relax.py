@@ -16,8 +16,9 @@
 Both stop when the relative residual |dE/dy| / (sum of the separate force
 sizes) falls below ``rtol`` (the dynamic one also needs the kinetic energy
 below ``ke_rtol`` times the energy scale max(|E|, force size x yarn
-length): at rest, not passing through equilibrium at speed), and raise :class:`RelaxationError` (with the last
-state) when they run out of steps.  They find minima, i.e. stable equilibria.
+length): at rest, not passing through equilibrium at speed), and raise
+:class:`RelaxationError` (with the last state) when they run out of steps.
+They find minima, i.e. stable equilibria.
 """
 from dataclasses import dataclass, field
 
@@ -72,7 +73,8 @@ def relax_static(model, y0, *, rtol=1e-6, max_iter=20000):
     E, _, r = _residual(model, result.x)
     if r > rtol:
         raise RelaxationError(f"L-BFGS stopped after {result.nit} iterations with relative "
-                              f"residual {r:.2e} > {rtol:.1e} ({result.message})", result.x, history)
+                              f"residual {r:.2e} > {rtol:.1e} ({result.message})",
+                              result.x, history)
     return Relaxed(result.x, result.nit, r, E, "static (L-BFGS)", history)
 
 
@@ -86,7 +88,8 @@ def stable_time_step(model, y, masses, iterations=60, rng=None, safety=0.7):
     eps = 1e-7 * max(1.0, np.linalg.norm(y) / np.sqrt(y.size))
     lam = 0.0
     for _ in range(iterations):
-        Kv = (model.reduced_energy(y + eps * v)[1] - model.reduced_energy(y - eps * v)[1]) / (2 * eps)
+        Kv = ((model.reduced_energy(y + eps * v)[1] - model.reduced_energy(y - eps * v)[1])
+              / (2 * eps))
         w = Kv / masses
         lam = float(np.linalg.norm(w))
         v = w / lam

@@ -117,7 +117,8 @@ def search_distance(px, py, pz, C):
         dy = C[1, 1] + t * (2.0 * C[2, 1] + 3.0 * t * C[3, 1])
         dz = C[1, 2] + t * (2.0 * C[2, 2] + 3.0 * t * C[3, 2])
         a = dx * dx + dy * dy + dz * dz
-        fp = a - (ux * (2.0 * C[2, 0] + 6.0 * t * C[3, 0]) + uy * (2.0 * C[2, 1] + 6.0 * t * C[3, 1])
+        fp = a - (ux * (2.0 * C[2, 0] + 6.0 * t * C[3, 0])
+                  + uy * (2.0 * C[2, 1] + 6.0 * t * C[3, 1])
                   + uz * (2.0 * C[2, 2] + 6.0 * t * C[3, 2]))
         step = (ux * dx + uy * dy + uz * dz) / (fp if fp > 0.25 * a else a)
         clamped = (t == 0.0 and step < -1e-9) or (t == 1.0 and step > 1e-9)

@@ -189,7 +189,8 @@ def write_bspline_popup(result, out, *, render=True, marks=None, view_c=0.6):
         near = min(result.samples, key=lambda s: abs(s.c_over_L - view_c))
         if near.max_abs_z_over_L > 0:
             from ..viz.render import render_rods
-            render_rods(out / f"popup_c{near.c_over_L:.2f}.png", yarn_mesh(result.model, near.control),
+            render_rods(out / f"popup_c{near.c_over_L:.2f}.png",
+                        yarn_mesh(result.model, near.control),
                         radius=0.5 * result.srod.diameter, view=(0.0, -1.0, 0.0), zoom=1.5,
                         title=f"c/L = {near.c_over_L:.2f}: B-spline yarn seen along y")
     (out / "popup.json").write_text(json.dumps(summary, indent=2))

@@ -70,12 +70,14 @@ def srod_yarn_model(srod, c_over_L, segments):
     c = srod.check_c("c", c_over_L) * L
     if int(segments) != segments or segments < 4:
         raise ValueError(f"segments must be an integer >= 4, got {segments!r}")
-    points, _ = planar_elastica(L, (srod.w, c), srod.start_angle, srod.end_angle, nodes=20 * segments)
+    points, _ = planar_elastica(L, (srod.w, c), srod.start_angle, srod.end_angle,
+                                nodes=20 * segments)
     section = srod.section
     yarn = Yarn.through(points, int(segments), section.EA, section.EI2, natural="straight",
                         length=L, radius=0.5 * srod.diameter)
     model = BSplineModel([yarn])
-    model.clamp(0, "start", (0.0, 0.0, 0.0), (np.cos(srod.start_angle), np.sin(srod.start_angle), 0))
+    model.clamp(0, "start", (0.0, 0.0, 0.0),
+                (np.cos(srod.start_angle), np.sin(srod.start_angle), 0))
     model.clamp(0, "end", (srod.w, c, 0.0), (np.cos(srod.end_angle), np.sin(srod.end_angle), 0))
     return model
 
