@@ -232,11 +232,18 @@ class BSplineModel:
         """Total energy, gradient (n, 3), and the summed sizes of the separate
         force contributions (a reference for relative residuals, at least the
         force of an axial strain of 1e-9)."""
+        return self._forces(q)[:3]
+
+    def _forces(self, q, qdot=None):
+        """:meth:`energy` and, with control-point velocities ``qdot`` and a
+        dissipative contact law, the contact damping force (n, 3) from the same
+        samples and pairs (else None)."""
         a, b = energy.derivatives(q, self.seg, self.quad)
         E1, g1 = energy.stretching(q, self.seg, self.rest, self.EA, self.quad, a)
         E2, g2 = energy.bending(q, self.seg, self.EI, self.quad, a, b)
         total, grad = E1 + E2, g1 + g2
         ref = np.linalg.norm(g1) + np.linalg.norm(g2)
+        damping = None
         if self.gravity is not None:
             f = energy.gravity_force(self.seg, self.rest, self.rho, self.gravity, self.quad, self.n)
             total -= np.sum(f * q)
@@ -251,8 +258,11 @@ class BSplineModel:
                 total += Ec
                 grad = grad + gc
                 ref += np.linalg.norm(gc)
+            if qdot is not None and self.contact.dissipates:
+                damping = self._to_control_points(
+                    contact_damping(pts, self._at_samples(qdot), weights, pairs, self.contact))
         # forces below an axial strain of 1e-9 are noise: a floor for unloaded states
-        return total, grad, max(ref, 1e-9 * float(self.EA.max()))
+        return total, grad, max(ref, 1e-9 * float(self.EA.max())), damping
 
     def _at_samples(self, q):
         """Control-point vectors (n, 3) -> the curve's vectors at the Gauss points (S*G, 3)."""
@@ -269,16 +279,17 @@ class BSplineModel:
     def contact_damping(self, y, v):
         """Contact damping force on the reduced coordinates at state y moving
         with velocity v (zero without a dissipative contact law)."""
-        if self.contact is None or not self.contact.dissipates:
-            return np.zeros_like(v)
+        return self.reduced_forces(y, v)[3]
+
+    def reduced_forces(self, y, v):
+        """:meth:`reduced_energy` at y and the contact damping force on the
+        reduced coordinates when moving with velocity v (zeros without a
+        dissipative contact law), from one pass over the contact samples."""
         Z, _ = self.reduction()
-        q = self.control_points(y)
         qdot = (Z @ v).reshape(-1, 3)          # the clamps hold still while relaxing
-        pts, weights, yarn, s = self.samples(q)
-        vel = self._at_samples(qdot)
-        pairs = candidate_pairs(pts, yarn, s, self.contact)
-        f = contact_damping(pts, vel, weights, pairs, self.contact)
-        return Z.T @ self._to_control_points(f).ravel()
+        E, g, ref, damping = self._forces(self.control_points(y), qdot)
+        fd = np.zeros_like(v) if damping is None else Z.T @ damping.ravel()
+        return E, Z.T @ g.ravel(), ref, fd
 
     def centrelines(self, q, per_segment=8):
         """Per yarn: points (m, 3), unit tangents (m, 3) and curvature (m,) sampled
