@@ -109,3 +109,26 @@ def test_bspline_model_agrees_with_the_beam_without_torsional_stiffness():
     assert abs(beam.critical_c_over_L - yarn.critical_c_over_L) < 0.01
     lo, hi = yarn.critical_bracket
     assert hi - lo <= 2e-3 and z_yarn[0.8] < 1e-4
+
+
+def test_sampling_just_below_the_critical_point_lands_on_the_popped_branch():
+    """Issue 10, case 4: samples a few 1e-4 below c_crit used to land from the
+    bifurcation point and stay in the (unstable) plane.  Now every sample
+    below c_crit is popped (z > 0) and stable, and the heights follow the
+    normal form of a supercritical pitchfork, z^2 / (c_crit - c) constant
+    (within 2 % over the first 6e-4 below c_crit; measured 0.04 %)."""
+    result = popup(SRod(), c_from=0.733, c_to=0.730, c_step=1e-4)
+    c_crit = result.critical_c_over_L
+    below = [s for s in result.samples if s.c_over_L < c_crit]
+    assert len(below) >= 25
+    assert all(s.stable and s.max_abs_z_over_L > 0 for s in below)
+    assert all(s.stable and s.max_abs_z_over_L == 0 for s in result.samples
+               if s.c_over_L > c_crit)
+    near = [s for s in below if c_crit - s.c_over_L < 6e-4]
+    ratio = [s.max_abs_z_over_L**2 / (c_crit - s.c_over_L) for s in near]
+    assert len(near) >= 5 and np.ptp(ratio) < 0.02 * np.mean(ratio)
+    state = result.state_at(c_crit - 1e-4)
+    _, J, _, _ = result.problem.evaluate(state, c_crit - 1e-4, True)
+    from knitfem.solve.stability import negative_eigenvalue_count
+    assert np.abs(state.x[:, 2]).max() > 0.004 * result.srod.length
+    assert negative_eigenvalue_count(J) == 0
