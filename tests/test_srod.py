@@ -132,3 +132,26 @@ def test_sampling_just_below_the_critical_point_lands_on_the_popped_branch():
     from knitfem.solve.stability import negative_eigenvalue_count
     assert np.abs(state.x[:, 2]).max() > 0.004 * result.srod.length
     assert negative_eigenvalue_count(J) == 0
+
+
+def test_popup_runs_small_problems_on_one_thread():
+    """Issue 10, case 7: the sweep pins BLAS (threadpoolctl) and numba to one
+    thread while it runs (seen from inside, through the progress callback),
+    and restores the pools afterwards; pin_threads=False leaves them."""
+    import numba
+    from threadpoolctl import threadpool_info
+    def pools():
+        return {p["filepath"]: p["num_threads"] for p in threadpool_info()}
+
+    before, seen = pools(), []
+
+    def look(point):
+        seen.append((pools(), numba.get_num_threads()))
+
+    popup(SRod(elements=12), c_from=0.8, c_to=0.75, c_step=0.05, progress=look)
+    assert seen and all(set(blas.values()) == {1} and nb == 1 for blas, nb in seen)
+    assert all(pools()[k] == v for k, v in before.items())
+    seen.clear()
+    popup(SRod(elements=12), c_from=0.8, c_to=0.75, c_step=0.05, progress=look,
+          pin_threads=False)
+    assert seen and all(blas[k] == v for blas, _ in seen for k, v in before.items())

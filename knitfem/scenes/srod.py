@@ -26,6 +26,7 @@ from ..beam.section import check_positive
 from ..geometry import planar_elastica
 from ..solve.continuation import Continuation, continuation, switch_branch
 from ..solve.stability import negative_eigenvalue_count
+from ..threads import threads_for
 
 OUT_OF_PLANE = [2, 3, 4]      # uz, rx, ry
 
@@ -172,18 +173,26 @@ def warm_up():
     element_forces(x, x + [1, 0, 0], q, q, np.ones(1), one, 0 * one, one, one)
 
 
-def popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, ds=0.2, progress=None):
+def popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, ds=0.2, progress=None,
+          pin_threads=True):
     """Trace the pop-up of ``srod`` as c/L goes from c_from down to c_to.
 
     Returns a :class:`PopupResult`: the planar branch with its events, both
     popped branches, and the stable path sampled at c_from, c_from - c_step,
-    ... (planar above the critical point, popped below).
+    ... (planar above the critical point, popped below).  ``pin_threads``:
+    run on one BLAS and numba thread (:func:`knitfem.threads.threads_for`; a
+    small problem runs faster so).
     """
     c_from = srod.check_c("c_from", c_from)
     c_to = srod.check_c("c_to", c_to)
     if not c_to < c_from:
         raise ValueError(f"c_to must be smaller than c_from, got c_from = {c_from}, c_to = {c_to}")
     c_step = check_positive("c_step", c_step)
+    with threads_for(6 * (srod.elements + 1), pin_threads):
+        return _popup(srod, c_from, c_to, c_step, ds, progress)
+
+
+def _popup(srod, c_from, c_to, c_step, ds, progress):
     warm_up()
     t0 = time.perf_counter()
     model = srod.model(c_from)
