@@ -359,8 +359,55 @@ class BeamModel:
         return np.where(self.fixed, r, 0.0)
 
     def length_scale(self):
-        """Characteristic length turning moments into forces in residual norms."""
-        return max(r.length for r in self.rods)
+        """Characteristic length of the scene (default: the longest rod; a scene
+        of many loops sets a loop's length with :meth:`set_length_scale`): the
+        unit of increments in convergence tests and of continuation steps, and
+        the bending length of the stiffness force scale."""
+        return self._length if getattr(self, "_length", None) else max(r.length for r in self.rods)
+
+    def set_length_scale(self, length):
+        """Use ``length`` (> 0) as the scene's characteristic length (see
+        :meth:`length_scale`), e.g. the yarn length of one knitted loop."""
+        v = float(length)
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"length scale must be finite and in (0, inf), got {length!r}")
+        self._length = v
+
+    def residual_weights(self):
+        """(n_dofs,) weights of residual entries: 1 on forces, 1/h on moments with
+        h the mean length of the node's elements, so that a moment imbalance
+        counts like the force pair that would carry it across an element (a rod
+        whose frames lag behind its positions is not taken for converged)."""
+        asm = self.assembly
+        a, b = asm.elements
+        count = np.bincount(np.concatenate([a, b]), minlength=asm.n_nodes)
+        h = (np.bincount(a, asm.h, asm.n_nodes) + np.bincount(b, asm.h, asm.n_nodes)) / \
+            np.maximum(count, 1)
+        h = np.where(count > 0, h, self.length_scale())
+        return np.column_stack([np.ones((asm.n_nodes, 3)),
+                                np.repeat(1.0 / h[:, None], 3, axis=1)]).ravel()
+
+    def force_scale(self, lam=1.0):
+        """A fixed force scale of the problem at load factor lam: the larger of
+        the loads (weighted norm) and the bending force sqrt(n_nodes) EI/l^2 of
+        the softest rod over the length scale l.  Relative residuals are taken
+        against it, never against the current internal forces (which vanish for
+        an unloaded free body and grow without bound at a diverged iterate)."""
+        EI = min(min(r.section.EI2, r.section.EI3) for r in self.rods)
+        stiffness = np.sqrt(self.assembly.n_nodes) * EI / self.length_scale() ** 2
+        loads = np.linalg.norm(lam * self.external_forces() * self.residual_weights())
+        return float(max(loads, stiffness))
+
+    def position_scale(self):
+        """Coordinates the model can reach: its layout's extent from the origin
+        plus the longest rod (a fixed scale for the round-off of chords)."""
+        x = self.assembly.initial_positions()
+        return float(np.abs(x).max() + max(r.length for r in self.rods))
+
+    def roundoff_floor(self):
+        """Round-off level of the weighted residual norm, at the fixed
+        :meth:`position_scale` (see RodAssembly.force_noise)."""
+        return self.assembly.force_noise(self.position_scale())
 
     def static_problem(self, lam, relax_positions=True):
         """Newton problem (see :mod:`knitfem.solve.newton`) at load factor lam."""

@@ -41,13 +41,13 @@ class BeamContact:
         self.damping = float(damping)      # line load per gap rate (force time / length^2)
         self.rate_reference = None         # (positions (n_nodes, 3), dt) during an increment
 
-    def noise(self, x):
-        """Round-off level of the contact forces: the gap of every active
-        Gauss point carries an error ~eps |x|, which the penalty turns into
-        k eps |x| per unit length (summed over the contact length)."""
+    def noise(self, size):
+        """Round-off level of the contact forces for coordinates of magnitude
+        ``size`` (a fixed scale): the gap of every active Gauss point carries an
+        error ~eps size, which the penalty turns into k eps size per unit
+        length (summed over the contact length of the last evaluation)."""
         if self.report is None or self.report.active_pairs == 0:
             return 0.0
-        size = float(np.abs(x).max())
         active_length = self.report.active_pairs * float(self.length.max())
         return float(self.segments.law.k * np.finfo(float).eps * size
                      * np.sqrt(active_length * self.length.max()))

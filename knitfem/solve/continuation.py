@@ -133,7 +133,7 @@ class FixedParameter:
 
     def __init__(self, problem, lam):
         self.problem, self.lam = problem, lam
-        for name in ("norm", "noise"):
+        for name in ("norm", "noise", "correction_norm"):
             if hasattr(problem, name):
                 setattr(self, name, getattr(problem, name))
 
@@ -160,6 +160,8 @@ class _Corrector:
         self.norm = (lambda r: norm(r[:-1])) if norm else (lambda r: float(np.linalg.norm(r[:-1])))
         if hasattr(problem, "noise"):
             self.noise = lambda y: problem.noise(y[0])
+        if hasattr(problem, "correction_norm"):
+            self.correction_norm = lambda dy: max(problem.correction_norm(dy[:-1]), abs(dy[-1]))
 
     def evaluate(self, y, jacobian=True):
         x, lam, delta = y
