@@ -151,3 +151,24 @@ class RodAssembly:
         """
         f = np.asarray(force_per_length, dtype=float)[self.rod_of_element]   # (nel, 3)
         return line_load.assemble(self.basis, f=f.T[:, :, None])
+
+
+def block_vector(dofs, values, n_dofs):
+    """Sum of per-block vectors values (m, k) into a vector (n_dofs,) at dofs (m, k)."""
+    return np.bincount(dofs.ravel(), np.ravel(values), minlength=n_dofs)
+
+
+def block_matrix(dofs, blocks, n_dofs, free=None):
+    """CSR matrix of per-block matrices blocks (m, k, k) at dofs (m, k) (duplicates
+    summed), restricted to the ``free`` dofs (mask (n_dofs,)) if given.  For terms
+    whose pattern changes between calls (contact pairs, ties)."""
+    rows = np.broadcast_to(dofs[:, :, None], blocks.shape).ravel()
+    cols = np.broadcast_to(dofs[:, None, :], blocks.shape).ravel()
+    data, n = np.ravel(blocks), n_dofs
+    if free is not None:
+        index = np.cumsum(free) - 1
+        index[~free] = -1
+        rows, cols = index[rows], index[cols]
+        keep = (rows >= 0) & (cols >= 0)
+        rows, cols, data, n = rows[keep], cols[keep], data[keep], int(np.count_nonzero(free))
+    return sparse.csr_matrix((data, (rows, cols)), shape=(n, n))

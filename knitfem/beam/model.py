@@ -77,6 +77,7 @@ class BeamModel:
         self._plane = None
         self._assembly = None
         self._contact = None
+        self._ties = []           # (node a, node b, stiffness or None)
         for r in rods:
             self.add_rod(r)
 
@@ -85,7 +86,7 @@ class BeamModel:
         """Add a :class:`Rod`; returns its index."""
         if not isinstance(rod, Rod):
             raise ValueError(f"add_rod expects a knitfem Rod, got {type(rod).__name__}")
-        if self._supports or self._nodal:
+        if self._supports or self._nodal or self._ties:
             raise ValueError("add all rods before supports and loads (node numbering)")
         self.rods.append(rod)
         self._assembly = None
@@ -242,6 +243,59 @@ class BeamModel:
         self.contact_model.forces(state.x, tangent=False)
         return self.contact_model.report
 
+    def tie(self, rod_a, at_a, rod_b, at_b, stiffness=None):
+        """Keep node ``at_a`` of rod ``rod_a`` and node ``at_b`` of rod ``rod_b`` at
+        their layout distance by a spring (a woven-in yarn tail; see
+        :mod:`knitfem.beam.tie`).  stiffness : force/length, default EA/r of the
+        softer rod (a piece of yarn one radius long).  Returns the tie's index."""
+        a, b = self.node(rod_a, at_a), self.node(rod_b, at_b)
+        if a == b:
+            raise ValueError("tie: the two nodes must differ")
+        if stiffness is not None:
+            stiffness = float(stiffness)
+            if not (np.isfinite(stiffness) and stiffness > 0):
+                raise ValueError(f"tie stiffness must be finite and in (0, inf), got {stiffness!r}")
+        self._ties.append((a, b, stiffness))
+        self._tie_model = None
+        return len(self._ties) - 1
+
+    @property
+    def tie_model(self):
+        """The :class:`knitfem.beam.tie.Ties` of the model (None without ties)."""
+        if not self._ties:
+            return None
+        if getattr(self, "_tie_model", None) is None:
+            from .tie import Ties
+            x = self.assembly.initial_positions()
+            a, b, k = (np.array(v) for v in zip(*self._ties))
+            rod_of_node = np.searchsorted(self.assembly.node_offset, np.arange(len(x)),
+                                          side="right") - 1
+            default = []
+            for i, j in zip(a, b):
+                rods = [self.rods[rod_of_node[i]], self.rods[rod_of_node[j]]]
+                radius = min(r.section.radius for r in rods)
+                EA = min(r.section.EA for r in rods)
+                default.append(EA / radius if np.isfinite(radius) else EA / min(
+                    r.h.min() for r in rods))
+            k = np.where([v is None for v in k], default, [v or 0.0 for v in k]).astype(float)
+            self._tie_model = Ties(a, b, np.linalg.norm(x[a] - x[b], axis=1), k)
+        return self._tie_model
+
+    def free_body(self, node=None):
+        """Remove the six rigid motions of a free-floating scene by holding one
+        node (position and frame; default the node nearest the centroid of the
+        layout): a statically determinate support, so its reactions vanish at
+        equilibrium (see :meth:`reactions`) and nothing else is constrained.
+        Rods without supports of their own are then held by ties or contact.
+        Returns the held node."""
+        x = self.assembly.initial_positions()
+        if node is None:
+            node = int(np.argmin(np.linalg.norm(x - x.mean(axis=0), axis=1)))
+        rod = int(np.searchsorted(self.assembly.node_offset, node, side="right") - 1)
+        self.clamp(rod, int(node - self.assembly.node_offset[rod]))
+        self._free_body = True
+        return int(node)
+
     def gravity(self, g):
         """Gravity acceleration (3,) acting on each rod's ``section.line_density``."""
         self._gravity = _vector("gravity", g)
@@ -289,11 +343,14 @@ class BeamModel:
                 raise ValueError(f"contradictory boundary conditions: a load acts on "
                                  f"supported dof(s) {hit} of node {node}; the support "
                                  "would absorb it")
+        if self._contact is not None or getattr(self, "_free_body", False):
+            return    # rods may be held by contact or ties; a singular tangent will tell
         for k, off in enumerate(self.assembly.node_offset[:-1]):
             end = self.assembly.node_offset[k + 1]
             if not fixed[off:end].any():
                 raise ValueError(f"rod {k} has no support and would move as a rigid body; "
-                                 "clamp, pin or prescribe at least one node")
+                                 "clamp, pin or prescribe at least one node (or call "
+                                 "free_body() for a free-floating scene)")
 
     def initial_state(self):
         return BeamState(self.assembly.initial_positions(), self.assembly.initial_rotations())
@@ -344,9 +401,15 @@ class BeamModel:
         ``free`` dofs if that mask is given) of a state, contact included; with
         ``direction`` also K @ direction (all dofs) as a fourth value."""
         out = self.assembly.forces(state.x, state.q, tangent, free, direction)
+        if self.tie_model is not None:
+            Et, ft, Kt = self.tie_model.forces(state.x, self.assembly.n_dofs, tangent, free)
+            out = (out[0] + Et, out[1] + ft, out[2] + Kt if tangent else None) + tuple(out[3:])
+            if direction is not None:
+                Ktd = self.tie_model.forces(state.x, self.assembly.n_dofs, True)[2]
+                out = out[:3] + (out[3] + Ktd @ direction,)
         if self.contact_model is None:
             return out
-        Ec, fc, Kc, Kvc = self.contact_model.forces(state.x, tangent, free, direction)
+        Ec, fc, Kc, Kvc = self.contact_model.forces(state.x, tangent, free, direction, state.q)
         energy, f, K = out[0] + Ec, out[1] + fc, (out[2] + Kc if tangent else None)
         if direction is None:
             return energy, f, K
