@@ -4,11 +4,14 @@ Commands
   popup     the S-rod pop-up: continuation in c/L, critical point, popped branches
   knit      plain-knit swatch geometry: .vtu, render, summary
   gallery   the beam verification gallery (closed-form checks as plots)
+  curl      fabric curling: relax a plain-knit swatch, classify its curl
 """
 import argparse
 import json
 import sys
 from pathlib import Path
+
+import numpy as np
 
 W_OVER_L = 28.4 / 105.0          # the paper's rod: w = 28.4 mm, L = 105 mm
 
@@ -51,6 +54,45 @@ def _popup(args):
               f"elapsed {summary['elapsed_s']:.3f} s;"
               f" wrote {args.json}")
     return 0
+
+
+def _positive_option(name, value, low=0.0, high=np.inf, inclusive=False):
+    ok = np.isfinite(value) and (low <= value if inclusive else low < value) and value <= high
+    if not ok:
+        lo = "[" if inclusive else "("
+        raise ValueError(f"{name} must be in {lo}{low:g}, {high:g}], got {value!r}")
+
+
+def _curl(args):
+    from .scenes.curl import curl, scene_from_options
+    if args.model == "bspline":
+        from .scenes.curl_bspline import bspline_curl_from_options
+        summary = bspline_curl_from_options(args)
+    else:
+        for name, value, low, high, inclusive in (
+                ("--nw", args.nw, 1, 200, True), ("--nc", args.nc, 1, 200, True),
+                ("--alpha", args.alpha, 0.0, 0.5, True), ("--friction", args.friction, 0.0, 2.0,
+                                                           True),
+                ("--w", args.w, 0.0, 1e3, False), ("--c", args.c, 0.0, 1e3, False),
+                ("--radius", args.radius, 0.0, 1e3, False),
+                ("--elements-per-loop", args.elements_per_loop, 8, 64, True),
+                ("--gj-over-ei", args.gj_over_ei, 0.0, 100.0, False),
+                ("--ea-over-ei", args.ea_over_ei, 0.0, 1e6, False),
+                ("--bindoff-stiffness", args.bindoff_stiffness, 0.0, 1e3, False)):
+            if value is not None:
+                _positive_option(name, value, low, high, inclusive)
+        if args.resume and not args.out:
+            raise ValueError("--resume needs --out (the folder holding the checkpoint)")
+        summary = curl(scene_from_options(args), out=args.out, render=not args.no_render,
+                       progress=not args.quiet, resume=args.resume)
+    text = json.dumps(summary, indent=2)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(text)
+    if not args.quiet:
+        print(text if not args.json else f"{summary['curl']} curl, converged "
+              f"{summary['converged']}; wrote {args.json}")
+    return 0 if summary.get("error") is None else 3
 
 
 def _gallery(args):
@@ -100,6 +142,31 @@ def build_parser():
     from .scenes.knit import add_parser as add_knit_parser
     add_knit_parser(sub)
 
+    c = sub.add_parser("curl", help="fabric curling: relax a plain-knit swatch (paper Fig. 5c)",
+                       description="Relax an N_w x N_c plain-knit swatch (beams, contact, "
+                       "friction, ties, pre-stretch) to a static equilibrium and classify its "
+                       "curl: side, double, top_bottom or flat.")
+    c.add_argument("--nw", type=int, default=10, help="wales N_w (default 10)")
+    c.add_argument("--nc", type=int, default=35, help="courses N_c (default 35)")
+    c.add_argument("--model", choices=("beam", "bspline"), default="beam")
+    c.add_argument("--alpha", type=float, default=None, help="pre-stretch ratio (0.2)")
+    c.add_argument("--w", type=float, default=None, help="wale length, mm (4)")
+    c.add_argument("--c", type=float, default=None, help="course length, mm (3)")
+    c.add_argument("--radius", type=float, default=None, help="yarn radius, mm (0.4)")
+    c.add_argument("--elements-per-loop", type=int, default=None, help="(16)")
+    c.add_argument("--gj-over-ei", type=float, default=None, help="torsion/bending (2/3)")
+    c.add_argument("--ea-over-ei", type=float, default=None,
+                   help="stretching/bending, 1/mm^2 (800)")
+    c.add_argument("--friction", type=float, default=None, help="Coulomb coefficient (0.3)")
+    c.add_argument("--bindoff-stiffness", type=float, default=None,
+                   help="bind-off stiffness / yarn stiffness (10)")
+    c.add_argument("--out", help="folder: relaxation path, final .vtu, renders, checkpoint")
+    c.add_argument("--json", help="write the summary JSON to this file")
+    c.add_argument("--resume", action="store_true", help="continue from --out's checkpoint")
+    c.add_argument("--no-render", action="store_true")
+    c.add_argument("--quiet", action="store_true")
+    c.set_defaults(run=_curl)
+
     g = sub.add_parser("gallery", help="beam verification gallery: plots, .vtu, render")
     g.add_argument("--out", default="studies/results/gallery", help="output folder")
     g.add_argument("--no-render", action="store_true", help="skip the pyvista renders")
@@ -112,6 +179,7 @@ def main(argv=None):
     from .solve import NewtonError
     from .bspline import RelaxationError
     from .solve.continuation import ContinuationError
+    from .scenes.fabric_relax import FabricRelaxationError
     args = build_parser().parse_args(argv)
     if getattr(args, "elements", 0) is None:
         args.elements = 32 if args.model == "bspline" else 60
@@ -120,7 +188,7 @@ def main(argv=None):
     except ValueError as err:        # bad input: a message, not a traceback
         print(f"knitfem {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except (NewtonError, ContinuationError, RelaxationError) as err:
+    except (NewtonError, ContinuationError, RelaxationError, FabricRelaxationError) as err:
         print(f"knitfem {args.command}: the solver failed: {err}", file=sys.stderr)
         return 3
 

@@ -240,7 +240,7 @@ class BeamModel:
         """Active pairs, min gap, max penetration, total normal force at ``state``."""
         if self.contact_model is None:
             return None
-        self.contact_model.forces(state.x, tangent=False)
+        self.contact_model.forces(state.x, tangent=False, q=state.q)
         return self.contact_model.report
 
     def tie(self, rod_a, at_a, rod_b, at_b, stiffness=None):

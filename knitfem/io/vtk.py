@@ -35,7 +35,7 @@ def beam_mesh(model, state, **extra_point_data):
     cell_data = {"gamma": [gamma], "kappa": [kappa], "rod": [asm.rod_of_element.astype(np.int32)]}
     contact = model.contact_model
     if contact is not None:
-        _, fc, _, _ = contact.forces(state.x, tangent=False)
+        _, fc, _, _ = contact.forces(state.x, tangent=False, q=state.q)
         gap = contact.report.segment_gap
         point_data["contact_force"] = -fc.reshape(-1, 6)[:, :3]
         cell_data["contact_gap"] = [gap]
