@@ -20,11 +20,12 @@ API
     a cross-option rule: ``function(values)`` raises :class:`OptionError`
     (use :func:`refuse`) or returns None; ``values`` has every option by its
     dest, defaults filled in.
-``Budget(what, estimate, limit, options)``
+``Budget(what, estimate, options, limit=None)``
     ``estimate(values)`` -> seconds (``what="run time"``) or bytes
     (``what="memory"``); above ``limit`` (a number or a function of the
-    values) the run is refused naming ``options`` and the estimate, unless
-    ``--no-limits`` was given.
+    values; default :data:`TIME_LIMIT` or :func:`memory_limit`) the run is
+    refused naming ``options`` and the estimate, unless ``--no-limits`` was
+    given.
 ``OptionSet(*specs)``
     ``.add_to(parser)`` (adds the options and, if there are budgets,
     ``--no-limits``); ``.validate(args)`` fills defaults in ``args`` and raises
@@ -44,7 +45,7 @@ A new command's options are a few lines (the ``curl`` command, say)::
         Check(lambda v: v.radius < v.w / 8 or refuse("--radius", "must be < --w/8 = "
                                                        f"{fmt(v.w / 8)}", v.radius)),
         Budget("run time", lambda v: 2e-4 * v.nw * v.nc * v.elements_per_loop ** 1.5,
-               limit=TIME_LIMIT, options=("--nw", "--nc", "--elements-per-loop")))
+               ("--nw", "--nc", "--elements-per-loop")))
     CURL.add_to(parser)                # in build_parser
     CURL.validate(args)                # before computing: OptionError -> exit 2
 
@@ -184,12 +185,15 @@ class Budget:
     that must stay below ``limit`` unless ``--no-limits`` is given."""
     what: str
     estimate: object
-    limit: object
     options: tuple = ()
+    limit: object = None              # default: TIME_LIMIT or memory_limit(), read when run
 
     def run(self, values):
         cost = float(self.estimate(values))
-        limit = float(self.limit(values) if callable(self.limit) else self.limit)
+        limit = self.limit(values) if callable(self.limit) else self.limit
+        if limit is None:
+            limit = memory_limit() if self.what == "memory" else TIME_LIMIT
+        limit = float(limit)
         values.estimates[self.what] = cost
         if cost > limit and not getattr(values, "no_limits", False):
             named = ", ".join(f"{o} {fmt(getattr(values, _dest(o)))}" for o in self.options)

@@ -19,8 +19,7 @@ import numpy as np
 
 from ..geometry import plain_knit_swatch
 from ..geometry.knit import course_length_range
-from ..options import Budget, Check, Integer, OptionSet, Real, TIME_LIMIT, fmt, memory_limit, \
-    refuse
+from ..options import Budget, Check, Integer, OptionSet, Real, fmt, refuse
 from ..verify.knit import approach_near, bend_radii, clearance, loop_polyline, projected_crossings
 
 
@@ -140,9 +139,8 @@ OPTIONS = OptionSet(
     Real("--radius", 0.4, "(0, 1e+06]", help="yarn radius, mm (< w/8)"),
     Integer("--points-per-loop", 32, "[8, inf)", help="centreline points per loop"),
     Check(_sizes),
-    Budget("memory", memory, lambda v: memory_limit(),
-           ("--nw", "--nc", "--points-per-loop", "--radius")),
-    Budget("run time", seconds, TIME_LIMIT, ("--nw", "--nc", "--points-per-loop", "--radius")),
+    Budget("memory", memory, ("--nw", "--nc", "--points-per-loop", "--radius")),
+    Budget("run time", seconds, ("--nw", "--nc", "--points-per-loop", "--radius")),
 )
 
 

@@ -28,6 +28,7 @@ from ..solve.continuation import Continuation, continuation, switch_branch
 from ..solve.stability import negative_eigenvalue_count
 
 OUT_OF_PLANE = [2, 3, 4]      # uz, rx, ry
+MAX_SAMPLES = 1e6             # samples of the stable path: each is a Newton solve
 
 
 @dataclass
@@ -75,7 +76,10 @@ class SRod:
         return math.sqrt(self.length**2 - self.w**2)
 
     def check_c(self, name, c_over_L):
-        c = float(c_over_L)
+        try:
+            c = float(c_over_L)
+        except (TypeError, ValueError):
+            c = math.nan                                  # refused below, by name
         hi = self.c_max / self.length
         if not (math.isfinite(c) and 0.0 < c < hi):
             raise ValueError(f"{name} must be in (0, sqrt(1 - (w/L)^2)) = (0, {hi:.6f}) for "
@@ -184,6 +188,9 @@ def popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, ds=0.2, progress=None):
     if not c_to < c_from:
         raise ValueError(f"c_to must be smaller than c_from, got c_from = {c_from}, c_to = {c_to}")
     c_step = check_positive("c_step", c_step)
+    if (c_from - c_to) / c_step > MAX_SAMPLES:
+        raise ValueError(f"c_step must be at least (c_from - c_to) / {MAX_SAMPLES:g} = "
+                         f"{(c_from - c_to) / MAX_SAMPLES:.3g}, got {c_step!r}")
     warm_up()
     t0 = time.perf_counter()
     model = srod.model(c_from)

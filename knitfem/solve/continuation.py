@@ -256,13 +256,20 @@ class Continuation:
     # -- events ---------------------------------------------------------------------------
     def locate_event(self, a, b, index):
         """Brent's method on the arclength between a and b for the zero of the
-        test function: t_lam (fold) or the signed determinant (bifurcation)."""
+        test function: t_lam (fold) or the signed determinant (bifurcation).
+        When the count of negative eigenvalues changes by an even number in
+        one step (two eigenvalues crossing, e.g. on a coarse mesh) the
+        determinant keeps its sign: the test function is then the change of
+        the count itself (+1 before, -1 after; Brent falls back to bisection)."""
         fold = a.tl * b.tl < 0
         kind = "fold" if fold else "bifurcation"
+        even = not fold and (b.negative - a.negative) % 2 == 0
 
         def test(p):
             if fold:
                 return p.tl
+            if even:
+                return 1.0 if p.negative == a.negative else -1.0
             return (-1.0) ** p.negative * np.exp(np.clip(p.logdet - a.logdet, -700, 700))
 
         ds = b.s - a.s
