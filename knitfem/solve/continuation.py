@@ -200,7 +200,8 @@ class Continuation:
 
     def point(self, x, lam, tx_ref, tl_ref, s=0.0, iterations=0):
         """A Point at the solution (x, lam): unit tangent from
-        [J R_lam; ref^T W^2, ref_l] t = [0; 1], oriented along the reference,
+        [J R_lam; ref^T W^2, ref_l] t = [0; 1] - its last row makes
+        <t, ref> = 1 > 0, so it points along the reference by construction -
         and the inertia of sym(J)."""
         w = self.weights(tx_ref.shape[0])
         _, J, R_lam, _ = self.problem.evaluate(x, lam, True)
@@ -210,8 +211,6 @@ class Continuation:
         tx, tl = t[:-1], t[-1]
         size = np.sqrt(np.sum((w * tx) ** 2) + tl**2)
         tx, tl = tx / size, tl / size
-        if w**2 @ (tx * tx_ref) + tl * tl_ref < 0:
-            tx, tl = -tx, -tl
         negative, logdet = inertia(J) if self.stability else (None, 0.0)
         return Point(x, float(lam), tx, float(tl), negative, logdet, s, iterations)
 

@@ -124,7 +124,8 @@ def bend45(out, plt):
     return result, final
 
 
-def greenhill(out, plt):
+def greenhill():
+    """Critical axial torque of the clamped shaft against Greenhill's closed form."""
     crit = cases.critical_load(cases.greenhill_shaft(32), (8.0, 10.0))
     exact = closed_form.greenhill_clamped()
     return {"critical_torque_ML_over_EI": crit.load, "exact": exact,
@@ -146,7 +147,7 @@ def run(out, render=True, log=print):
     log("d. 45-degree bend ...")
     summary["d_bend45"], (bend_model, bend_state) = bend45(out, plt)
     log("e. Greenhill ...")
-    summary["e_greenhill"] = greenhill(out, plt)
+    summary["e_greenhill"] = greenhill()
     if render:
         from ..viz.render import render_rods
         log("rendering ...")
