@@ -40,6 +40,16 @@ def add_command(subparsers, name, run, options, outputs=(), remove_listed=True, 
     return parser
 
 
+def add_output_options(parser, out_help):
+    """``--out DIR`` (``out_help``), ``--json FILE``, ``--no-render``, ``--quiet``:
+    the output options every command shares (checked by :func:`main`)."""
+    parser.add_argument("--out", help=f"{out_help} (+ run.json)")
+    parser.add_argument("--json", help="write the summary JSON to this file")
+    parser.add_argument("--no-render", action="store_true", help="skip the pyvista render")
+    parser.add_argument("--quiet", action="store_true")
+    return parser
+
+
 def run_folder(args):
     """The :class:`knitfem.io.run.RunFolder` of ``--out`` (a no-op context
     without it): enter it before computing, write the files inside."""

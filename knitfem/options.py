@@ -36,18 +36,23 @@ API
 
 A new command's options are a few lines (the ``curl`` command, say)::
 
+    def _yarn_fits(v):
+        if not v.radius < v.w / 8:
+            refuse("--radius", f"must be below --w/8 = {fmt(v.w / 8)}", v.radius)
+
     CURL = OptionSet(
-        Integer("--nw", 10, "[2, inf)", help="wales"),
-        Integer("--nc", 10, "[2, inf)", help="courses"),
+        Integer("--nw", 10, "[2, inf)", help="wales"), Integer("--nc", 10, "[2, inf)"),
         Real("--alpha", 1.0, "(0, 2]", help="yarn pre-stretch ratio"),
-        Real("--w", 4.0, "(0, inf)", help="wale length, mm"),
-        Real("--radius", 0.4, "(0, inf)", help="yarn radius, mm"),
-        Check(lambda v: v.radius < v.w / 8 or refuse("--radius", "must be < --w/8 = "
-                                                       f"{fmt(v.w / 8)}", v.radius)),
+        Real("--radius", 0.4, "(0, inf)", help="yarn radius, mm"), ...,
+        Check(_yarn_fits),
         Budget("run time", lambda v: 2e-4 * v.nw * v.nc * v.elements_per_loop ** 1.5,
                ("--nw", "--nc", "--elements-per-loop")))
-    CURL.add_to(parser)                # in build_parser
-    CURL.validate(args)                # before computing: OptionError -> exit 2
+
+    # knitfem/cli.py's build_parser registers the command:
+    p = add_command(subparsers, "curl", run, CURL, outputs=("curl*.vtu", "curl.json"))
+    add_output_options(p, "folder for the relaxed swatch")   # --out --json --no-render --quiet
+    # main() then validates (exit 2 on OptionError), checks --out / --json and calls run(args);
+    # run() computes inside ``with run_folder(args):`` (run.json, stale files, interruption)
 
 Output options (``--out``, ``--json``) are checked by
 :func:`check_outputs`; run folders and atomic writes are in
@@ -127,18 +132,19 @@ class Real:
     when: tuple = None                # (dest, value[, reason]): the option applies only then
     metavar: str = None
     kind = "a number"
+    type = float                      # argparse's converter (its name shows in its messages)
 
     @property
     def dest(self):
         return self.flag.lstrip("-").replace("-", "_")
 
     def parse(self, text):
-        return float(text)
+        return self.type(text)
 
     def add_to(self, parser):
         default = self.default if not callable(self.default) else None
         shown = f" (default {fmt(default)})" if default is not None else ""
-        parser.add_argument(self.flag, dest=self.dest, type=self.parse, default=None,
+        parser.add_argument(self.flag, dest=self.dest, type=self.type, default=None,
                             metavar=self.metavar, help=f"{self.help}{shown}")
 
     def check(self, value):
@@ -152,9 +158,7 @@ class Integer(Real):
     """An integer option in ``interval``."""
     interval: str = "[1, inf)"
     kind = "an integer"
-
-    def parse(self, text):
-        return int(text)
+    type = int
 
 
 @dataclass(frozen=True)

@@ -94,7 +94,7 @@ def classify(command, flag, code, err, json_path, elapsed, timed_out):
     return "refusal, wrong wording"
 
 
-def run_case(case, tmp, timeout):
+def run_case(case, tmp, timeout, pythonpath=None):
     command, flag, argv = case
     js = Path(tempfile.mkdtemp(dir=tmp)) / "summary.json"
     if command != "gallery" and "--json" not in argv:
@@ -103,6 +103,8 @@ def run_case(case, tmp, timeout):
         argv = argv + ["--out", str(js.parent / "gallery")]
     cmd = [sys.executable, "-m", "knitfem.cli", command, *argv, "--quiet"]
     env = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
+    if pythonpath:                                 # e.g. an older checkout, for a before/after
+        env["PYTHONPATH"] = pythonpath
     t = time.perf_counter()
     try:
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
@@ -142,6 +144,8 @@ def main():
     parser.add_argument("--out", default="studies/results/bad_input_table")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--timeout", type=float, default=120.0)
+    parser.add_argument("--pythonpath", default=None,
+                        help="run the cases with this PYTHONPATH (e.g. an older knitfem)")
     args = parser.parse_args()
     from knitfem.io import write_json, write_text
     with tempfile.TemporaryDirectory(prefix="knitfem-bad-input-") as tmp:
@@ -149,7 +153,8 @@ def main():
         todo = cases(tmp)
         t = time.perf_counter()
         with ThreadPoolExecutor(args.jobs) as pool:
-            rows = list(pool.map(lambda c: run_case(c, tmp, args.timeout), todo))
+            rows = list(pool.map(lambda c: run_case(c, tmp, args.timeout, args.pythonpath),
+                                 todo))
         wall = time.perf_counter() - t
     table, every = markdown(rows)
     out = Path(args.out)

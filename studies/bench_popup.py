@@ -7,12 +7,12 @@ Timing: ``elapsed_s`` of :func:`knitfem.scenes.srod.popup` (solver wall time,
 after imports and the numba warm-up), median of repeated runs.
 """
 import argparse
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
+from knitfem.io import write_json
 from knitfem.scenes.popup_sweep import heat_map
 from knitfem.scenes.srod import SRod, popup
 
@@ -49,8 +49,7 @@ def main():
             "errors": hm.errors}
     print(f"heat map {len(w)} x {len(c)}: {wall:.1f} s wall on all cores "
           f"(solver time summed over columns {hm.elapsed.sum():.1f} s)")
-    (out / "bench_popup.json").write_text(json.dumps({"sweep": sweep, "heat_map": heat},
-                                                     indent=2))
+    write_json(out / "bench_popup.json", {"sweep": sweep, "heat_map": heat})
 
 
 if __name__ == "__main__":

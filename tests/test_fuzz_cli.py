@@ -164,7 +164,8 @@ def test_unwritable_outputs_are_refused_before_any_work(command, target, option,
     path = str(tmp_path / target) if target in ("FILE", "DIR") else target
     if (option, target) in (("--out", "DIR"), ("--json", "FILE")):
         return                                      # writable: not this test's business
-    small = {"popup": POPUP_BASE[1:], "knit": KNIT_BASE[1:], "gallery": []}[command] + ["--no-render"]
+    small = {"popup": POPUP_BASE[1:], "knit": KNIT_BASE[1:], "gallery": []}[command]
+    small = small + ["--no-render"]
     code, out, err = run([command, option, path, "--quiet", *small], seconds=20)
     assert code == 2 and err.count("\n") == 1 and f"{option} {path}" in err, err
 

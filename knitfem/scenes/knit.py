@@ -152,7 +152,7 @@ def _outputs(args):
 
 def add_parser(subparsers):
     """Register ``knit`` on the CLI's sub-parsers; returns the parser."""
-    from ..cli import add_command
+    from ..cli import add_command, add_output_options
     p = add_command(
         subparsers, "knit", run, OPTIONS, _outputs, remove_listed=False,
         help="plain-knit swatch geometry: .vtu, render, summary",
@@ -161,11 +161,7 @@ def add_parser(subparsers):
     p.add_argument("--no-bindoff", action="store_true", help="leave out the bind-off helices")
     p.add_argument("--check", action="store_true",
                    help="measure clearance, interlocks and contact (slower)")
-    p.add_argument("--out", help="folder for the .vtu and .png (+ run.json)")
-    p.add_argument("--json", help="write the summary JSON to this file")
-    p.add_argument("--no-render", action="store_true", help="skip the pyvista render")
-    p.add_argument("--quiet", action="store_true")
-    return p
+    return add_output_options(p, "folder for the .vtu and .png")
 
 
 def run(args):

@@ -99,7 +99,7 @@ OUTPUTS = ("branch.csv", "branches.csv", "popup.json", "popup_z.png", "popup_c*.
 
 
 def add_parser(subparsers):
-    from ..cli import add_command
+    from ..cli import add_command, add_output_options
     p = add_command(
         subparsers, "popup", run, OPTIONS, OUTPUTS,
         help="S-rod pop-up by continuation in c/L (paper Fig. 4)",
@@ -111,11 +111,7 @@ def add_parser(subparsers):
                    "independent yarn-level model (no twist energy), relaxed point by point")
     p.add_argument("--relax", choices=("static", "dynamic"), default=None,
                    help="bspline model: L-BFGS (static, default) or dynamic relaxation")
-    p.add_argument("--out", help="folder for CSV, .vtu, plot and render (+ run.json)")
-    p.add_argument("--json", help="write the summary JSON to this file")
-    p.add_argument("--no-render", action="store_true", help="skip the pyvista render")
-    p.add_argument("--quiet", action="store_true")
-    return p
+    return add_output_options(p, "folder for CSV, .vtu, plot and render")
 
 
 def run(args):
