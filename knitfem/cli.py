@@ -15,6 +15,7 @@ input, 3 the solver failed, 130 / 143 interrupted by SIGINT / SIGTERM
 import argparse
 from contextlib import nullcontext
 import json
+from pathlib import Path
 import sys
 
 from .options import OptionError, check_outputs
@@ -85,6 +86,13 @@ def build_parser():
     return parser
 
 
+def _incomplete(manifest):
+    try:
+        return json.loads(manifest.read_text())["complete"] is False
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+
+
 def _fail(name, message, code):
     print(f"knitfem{' ' + name if name else ''}: {message}", file=sys.stderr)
     return code
@@ -123,7 +131,8 @@ def main(argv=None):
             if stop is None:
                 raise
             folder = getattr(locals().get("args"), "out", None)
-            where = f"; {folder}/run.json says complete: false" if folder else ""
+            marked = folder and _incomplete(Path(folder) / "run.json")
+            where = f"; {folder}/run.json says complete: false" if marked else ""
             return _fail(name, f"interrupted by {stop.signal_name}{where}", stop.exit_code)
 
 

@@ -107,7 +107,10 @@ def run_case(case, tmp, timeout, pythonpath=None):
         env["PYTHONPATH"] = pythonpath
     t = time.perf_counter()
     try:
-        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+        # run from the temporary folder: a current directory holding knitfem/ would come
+        # first on sys.path and hide --pythonpath
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env,
+                           cwd=tmp)
         code, err, timed_out = p.returncode, p.stderr, False
     except subprocess.TimeoutExpired as e:
         code, err, timed_out = None, (e.stderr or b"").decode() if isinstance(

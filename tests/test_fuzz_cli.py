@@ -170,13 +170,17 @@ def test_unwritable_outputs_are_refused_before_any_work(command, target, option,
     assert code == 2 and err.count("\n") == 1 and f"{option} {path}" in err, err
 
 
-@settings(max_examples=60, deadline=None, derandomize=True)
+@settings(max_examples=60, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(argv=st.lists(st.sampled_from(["popup", "knit", "gallery", "curl", "--out", "--quiet",
                                       "--json", "--model", "--elements", "--frob", "-h2", "x",
                                       "1", "--nw", "--no-limits", "--c-step"]), max_size=6))
-def test_garbage_argument_lists_get_one_line(argv):
-    if "--help" in argv or "-h" in argv:
-        return
+def test_garbage_argument_lists_get_one_line(argv, monkeypatch):
+    """Parsing and checking only: a list that parses runs a stub, not the command."""
+    from knitfem.verify import gallery
+    for module, name in ((popup_command, "run"), (knit_command, "run"),
+                         (gallery, "_run_command")):
+        monkeypatch.setattr(module, name, lambda args: 0)
     code, out, err = run(argv, seconds=30)
     assert "Traceback" not in err
     assert code in (0, 2, 3), (argv, code, err)
