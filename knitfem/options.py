@@ -143,7 +143,8 @@ class Real:
 
     def add_to(self, parser):
         default = self.default if not callable(self.default) else None
-        shown = f" (default {fmt(default)})" if default is not None else ""
+        shown = f" (default {fmt(default)}; " if default is not None else " ("
+        shown += f"valid {Interval(self.interval)})"
         parser.add_argument(self.flag, dest=self.dest, type=self.type, default=None,
                             metavar=self.metavar, help=f"{self.help}{shown}")
 

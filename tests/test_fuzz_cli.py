@@ -18,7 +18,7 @@ from knitfem.cli import main
 from knitfem.scenes import knit as knit_command
 from knitfem.scenes import popup_command
 
-FUZZ = settings(max_examples=60, deadline=None, derandomize=True,
+FUZZ = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture,
                                        HealthCheck.too_slow])
 ODD = ["nan", "NaN", "inf", "-inf", "0", "-0", "-1", "1", "2", "0.5", "1e300", "-1e300",
@@ -150,7 +150,7 @@ def test_knit_option_combinations(chosen, check, tmp_path):
             assert code == 2 and flag in err, (flag, text, err)
 
 
-@settings(max_examples=30, deadline=None, derandomize=True,
+@settings(max_examples=30, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(command=st.sampled_from(["popup", "knit", "gallery"]),
        target=st.sampled_from(["/dev/null", "/dev/full", "/proc/knitfem/x", "FILE", "DIR",
@@ -170,14 +170,16 @@ def test_unwritable_outputs_are_refused_before_any_work(command, target, option,
     assert code == 2 and err.count("\n") == 1 and f"{option} {path}" in err, err
 
 
-@settings(max_examples=60, deadline=None, derandomize=True,
+@settings(max_examples=60, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(argv=st.lists(st.sampled_from(["popup", "knit", "gallery", "curl", "--out", "--quiet",
                                       "--json", "--model", "--elements", "--frob", "-h2", "x",
                                       "1", "--nw", "--no-limits", "--c-step"]), max_size=6))
-def test_garbage_argument_lists_get_one_line(argv, monkeypatch):
-    """Parsing and checking only: a list that parses runs a stub, not the command."""
+def test_garbage_argument_lists_get_one_line(argv, monkeypatch, tmp_path):
+    """Parsing and checking only: a list that parses runs a stub, not the command
+    (in a temporary folder: ``--out x`` creates x)."""
     from knitfem.verify import gallery
+    monkeypatch.chdir(tmp_path)
     for module, name in ((popup_command, "run"), (knit_command, "run"),
                          (gallery, "_run_command")):
         monkeypatch.setattr(module, name, lambda args: 0)

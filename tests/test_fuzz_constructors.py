@@ -14,7 +14,7 @@ from knitfem import Rod, Section
 from knitfem.geometry import plain_knit_swatch
 from knitfem.scenes.srod import SRod, popup
 
-FUZZ = settings(max_examples=60, deadline=None, derandomize=True,
+FUZZ = settings(max_examples=60, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.too_slow])
 ODD = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
                 st.sampled_from([0.0, -0.0, -1.0, 1e-300, 1e300, -1e300, 2.5, float("nan"),
@@ -125,7 +125,7 @@ def test_rod_arc_gives_a_finite_rod_or_names_the_parameter(args):
         assert finite(rod.X, rod.Q, rod.kappa0)
 
 
-@settings(max_examples=40, deadline=None, derandomize=True,
+@settings(max_examples=40, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.too_slow])
 @given(args=arguments({"n_wale": st.integers(1, 3), "n_course": st.integers(1, 3),
                        "w": st.floats(2.0, 6.0), "c": st.floats(1.5, 4.0),
@@ -162,7 +162,7 @@ def srod_popup(c_from, c_to, c_step):
     return popup(SROD, c_from, c_to, c_step)
 
 
-@settings(max_examples=30, deadline=None, derandomize=True)
+@settings(max_examples=20, deadline=None, derandomize=True, database=None)
 @given(args=arguments({"c_from": st.floats(0.85, 0.95), "c_to": st.floats(0.6, 0.8),
                        "c_step": st.floats(0.05, 0.3)}))
 def test_popup_options_give_a_branch_or_name_the_parameter(args):

@@ -79,8 +79,9 @@ def test_sigterm_mid_sweep_then_resume_equals_the_uninterrupted_heat_map(tmp_pat
     assert run["complete"] is False and run["interrupted"] == "SIGTERM"
     assert sweep["complete"] is False and not (out / "popup_heatmap.json").exists()
 
-    done = subprocess.run(study(out, "--resume"), capture_output=True, text=True, env=env,
-                          timeout=300)
+    resume = study(out, "--resume")
+    resume[resume.index("--workers") + 1] = "0"         # in its own process: no spawn needed
+    done = subprocess.run(resume, capture_output=True, text=True, env=env, timeout=300)
     assert done.returncode == 0, done.stderr
     result = json.loads((out / "popup_heatmap.json").read_text())
     assert result["columns_reused"] == finished
