@@ -8,8 +8,9 @@ allocates) and inlined into the element loop (``inline="always"``), except
 the call: passing ~40 arrays with reference counting per element cost more
 than the element's arithmetic (measured: the split kernel with counted calls
 took 1.4x the residual and 1.2x the tangent time of the single function it
-replaced; as written here it takes 0.8x and 1.0x, ``studies/bench_beam.py
---only assembly``).
+replaced; as written here it takes 0.7-0.8x and 1.0x: ``element_forces`` on
+1000-20000 elements, best of interleaved runs; ``studies/bench_beam.py --only
+assembly --dry-run`` times the assembly).
 """
 from collections import namedtuple
 
