@@ -22,6 +22,7 @@ import numpy as np
 from ..solve.stepping import load_stepping
 from ..contact import DEFAULT_FACTOR, DEFAULT_REGULARISATION
 from .assembly import DOFS_PER_NODE, RodAssembly
+from .contact_options import ContactOptions
 from .rod import Rod
 from .yarn_contact import BeamContact, default_law
 from .rotation import (quat_conjugate, quat_multiply, rotate_spatially, rotation_from_vector,
@@ -202,22 +203,14 @@ class BeamModel:
         self._nodal.append((self.node(rod, at), np.r_[np.zeros(3), _vector("moment", M)]))
 
     def contact(self, law=None, *, factor=DEFAULT_FACTOR, regularisation=DEFAULT_REGULARISATION,
-                exclude=None, per_diameter=6, damping=0.0, duration=1.0):
-        """Switch on penalty contact among all rods (self-contact included).
-
-        law : a :class:`knitfem.contact.PenaltyLaw`, default k = factor EI/r^4
-        of the softest rod, g0 = regularisation (r_a + r_b).  exclude : arclength
-        below which elements of one rod are neighbours (default 4 r).
-        damping : normal damping c (line load per gap rate, force time/length^2)
-        acting during :meth:`solve`'s increments, the load path 0 -> 1 taking
-        the pseudo-time ``duration``.
-        """
-        for name, value, low in (("damping", damping, "[0"), ("duration", duration, "(0")):
-            if not (np.isfinite(value) and (value > 0 or (value == 0 and low == "[0"))):
-                raise ValueError(f"contact {name} must be finite and in {low}, inf), "
-                                 f"got {value!r}")
-        self._contact = (law, factor, regularisation, exclude, per_diameter, float(damping),
-                         float(duration))
+                exclude=None, per_diameter=6, damping=0.0, duration=1.0, friction=0.0,
+                slip=None):
+        """Switch on penalty contact among all rods (self-contact included); the
+        options are those of :class:`ContactOptions` (law, or factor and
+        regularisation; exclude; per_diameter; damping and duration; friction
+        and its stick slip)."""
+        self._contact = ContactOptions(law, factor, regularisation, exclude, per_diameter,
+                                       damping, duration, friction, slip)
         self._contact_model = None
 
     @property
@@ -226,15 +219,19 @@ class BeamModel:
         if self._contact is None:
             return None
         if getattr(self, "_contact_model", None) is None:
-            law, factor, regularisation, exclude, per_diameter, damping, _ = self._contact
-            law = default_law(self.rods, factor, regularisation) if law is None else law
-            self._contact_model = BeamContact(self.assembly, law, exclude, per_diameter, damping)
+            o = self._contact
+            law = default_law(self.rods, o.factor, o.regularisation) if o.law is None else o.law
+            self._contact_model = BeamContact(self.assembly, law, o.exclude, o.per_diameter,
+                                              o.damping)
+            self._contact_model.friction = o.friction
+            radius = min(r.section.radius for r in self.rods)
+            self._contact_model.slip = o.slip if o.slip is not None else 1e-3 * radius
         return self._contact_model
 
     @property
     def contact_duration(self):
         """Pseudo-time of the load path 0 -> 1 (for contact damping)."""
-        return self._contact[6] if self._contact is not None else 1.0
+        return self._contact.duration if self._contact is not None else 1.0
 
     def contact_report(self, state):
         """Active pairs, min gap, max penetration, total normal force at ``state``."""

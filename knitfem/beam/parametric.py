@@ -3,8 +3,10 @@
 The parameter lam drives the loads (``lam * f_ext``) and the prescribed
 motions (the path functions given to ``BeamModel.prescribe``).  Unknowns are
 the increments of the free dofs; every state handed out satisfies the
-supports at its own lam.  dR/dlam is exact: the tangent times the supports'
-velocity, minus the load vector.
+supports at its own lam.  dR/dlam is the tangent times the supports'
+velocity minus the load vector; the velocity is a central difference of the
+user's path functions (step 1e-6 max(1, |lam|): exact for the linear paths
+of the scenes, second order otherwise), not an exact derivative.
 """
 import numpy as np
 

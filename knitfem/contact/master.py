@@ -88,7 +88,8 @@ def _closest(px, py, pz, C):
             vy = py - (C[0, 1] + new * (C[1, 1] + new * (C[2, 1] + new * C[3, 1])))
             vz = pz - (C[0, 2] + new * (C[1, 2] + new * (C[2, 2] + new * C[3, 2])))
             Fn = 0.5 * (vx * vx + vy * vy + vz * vz)
-            if Fn <= F:
+            # F resolves t only to ~sqrt(eps): tiny (polishing) steps are taken as they are
+            if Fn <= F or abs(new - t) < 1e-7:
                 t, ux, uy, uz, F, moved = new, vx, vy, vz, Fn, True
                 break
             step *= 0.5

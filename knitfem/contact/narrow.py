@@ -52,22 +52,12 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .law import penalty
 from .master import (bulge, chord_distance, coefficients, gather, project, search_distance,
                      segment_distance)
 
 MAX_ORDER = 48
 SLOTS = 6                    # slave a0, a1; master M0..M3
-
-
-@njit(cache=True)
-def _law(g, k, g0):
-    """phi, phi', phi'' of the penalty law (see law.py)."""
-    if g >= g0:
-        return 0.0, 0.0, 0.0
-    if g >= 0.0:
-        t = g0 - g
-        return k * t**3 / (6.0 * g0), -k * t * t / (2.0 * g0), k * t / g0
-    return k * (g0 * g0 / 6.0 - 0.5 * g0 * g + 0.5 * g * g), -k * (0.5 * g0 - g), k
 
 
 @njit(cache=True)
@@ -83,7 +73,7 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, 
     g = d - R
     if g >= g0 or d < 1e-14 * R:
         return 0.0
-    phi, dphi, ddphi = _law(g, k, g0)
+    phi, dphi, ddphi = penalty(g, k, g0)
     if c_dt > 0.0:
         ramp = ddphi / k
         slope = -1.0 / g0 if g >= 0.0 else 0.0
@@ -290,7 +280,7 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
         rec_f[h, 0], rec_f[h, 1], rec_f[h, 2] = xi, WTS[nq, q] * length[A], tq
         for j in range(3):
             rec_f[h, 3 + j] = u[j] / d if d > 0.0 else 0.0
-        rec_f[h, 6] = -_law(d - radius[A] - radius[B], k, g0)[1]
+        rec_f[h, 6] = -penalty(d - radius[A] - radius[B], k, g0)[1]
     return energy, used, ends, grads, hess, stats, seg_gap, rec_i, rec_f
 
 

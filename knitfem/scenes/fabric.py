@@ -131,10 +131,7 @@ def build(scene):
         for ya, pa, yb, pb in swatch_ties(swatch):
             model.tie(ya, pa, yb, pb)
     model.contact(factor=scene.penalty, regularisation=scene.regularisation,
-                  per_diameter=scene.per_diameter)
-    contact = model.contact_model
-    contact.friction = float(scene.friction)
-    contact.slip = 1e-3 * scene.radius
+                  per_diameter=scene.per_diameter, friction=scene.friction)
     model.set_length_scale(swatch.loop.w)
     held = model.free_body()
     info = {"inflation": delta, "start_gap_over_d": min_gap / (2.0 * scene.radius),
