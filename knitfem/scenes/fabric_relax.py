@@ -10,9 +10,9 @@ straight, pre-stretched yarn (lam = 1) in quasi-static increments:
    more than half a yarn radius, so no yarn can pass through another;
 2. friction is *lagged*: its anchors (normal forces, frames, the set of
    touching points) are taken at the start of a round and kept while the
-   round minimises; rounds repeat (anchors updated, each point's slip carried
-   over, :mod:`knitfem.contact.friction`) until a round ends converged;
-   contacts that formed during a round get their friction in the next;
+   round minimises; the next round (or increment) updates them, carrying each
+   point's slip over (:mod:`knitfem.contact.friction`): contacts that formed
+   during a round get their friction in the next;
 3. the increment grows after easy increments and is halved (from the last
    equilibrium) when ``max_rounds`` rounds do not converge;
 4. at lam = 1 rounds go on until a converged round moves no node more than
@@ -99,12 +99,12 @@ def _round(model, state, lam, tol, iterations, progress=None):
     return result, gap[0]
 
 
-def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=None):
-    """Friction rounds at lam until one converges after at least two (the
-    contacts made by the first need their friction) and moved no node more
-    than ``creep`` (the lagged normal forces have settled), or ``max_rounds``
-    rounds of which the last converged; returns (result, Increment) or
-    (None, reason)."""
+def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=None,
+               min_rounds=1):
+    """Friction rounds at lam until one converges (after at least
+    ``min_rounds``) and moved no node more than ``creep`` (the lagged normal
+    forces have settled), or ``max_rounds`` rounds of which the last
+    converged; returns (result, Increment) or (None, reason)."""
     t = time.perf_counter()
     total, gap, result = 0, np.inf, None
     for k in range(max_rounds):
@@ -116,7 +116,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         gap = min(gap, g)
         moved = float(np.max(np.abs(result.state.x - state.x)))
         state = result.state
-        if result.converged and k >= 1 and moved <= creep:
+        if result.converged and (k >= min_rounds - 1) and moved <= creep:
             break
     if result is None or not result.converged:
         return None, (f"no converged friction round at lam = {lam:.4g} in {max_rounds} rounds "
@@ -125,7 +125,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
                              time.perf_counter() - t)
 
 
-def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-6, dlam=0.1,
+def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-5, dlam=0.1,
                  dlam_max=0.25, dlam_min=1e-3, iterations=25, max_rounds=8, creep=None,
                  progress=None, checkpoint=None):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
@@ -149,7 +149,7 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
         homotopy.apply(target)
         result, inc = _increment(model, state, target, tol if last else path_tol, iterations,
                                  2 * max_rounds if last else max_rounds,
-                                 creep if last else np.inf, progress)
+                                 creep if last else np.inf, progress, 2 if last else 1)
         if result is None:
             dlam *= 0.5
             homotopy.apply(lam)
@@ -161,7 +161,7 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
             continue
         increments.append(inc)
         state, lam = result.state, target
-        if inc.iterations <= 2 * iterations:
+        if inc.iterations <= iterations:
             dlam = min(1.5 * dlam, dlam_max)
         if checkpoint is not None:
             checkpoint(state, lam, dlam, increments)

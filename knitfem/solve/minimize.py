@@ -54,7 +54,7 @@ class Relaxed:
     residual: float
     iterations: int
     converged: bool
-    history: list = field(default_factory=list)     # (E, residual, mu, t, hessian used)
+    history: list = field(default_factory=list)   # (E, residual, mu, t, hessian used, step cap)
 
 
 def _factor(H, D, mu):
@@ -107,8 +107,8 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
                     raise RelaxationError("relaxation: no positive definite model of the "
                                           f"Hessian at iteration {it}", x, history) from None
         dx = -chol.solve(g)
-        if limit is not None:
-            dx = dx * min(1.0, float(limit(x, dx)))
+        cap = min(1.0, float(limit(x, dx))) if limit is not None else 1.0
+        dx = dx * cap
         slope = float(g @ dx)
         t, accepted = 1.0, False
         # near a minimum the energy's decrease falls below its round-off
@@ -138,7 +138,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
                 raise RelaxationError(f"relaxation stalled at iteration {it}: no decrease of "
                                       f"the energy along a damped Newton step (residual "
                                       f"{res:.3e})", x, history)
-        history.append((E, res, mu, t if accepted else 0.0, used))
+        history.append((E, res, mu, t if accepted else 0.0, used, cap))
         if progress is not None:
             progress(it, E, res)
     if raise_on_failure:

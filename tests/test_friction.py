@@ -1,0 +1,160 @@
+"""Regularised Coulomb friction between yarns (knitfem.contact.friction) and its
+beam coupling: exact derivatives, Coulomb bound, stick and slide against the
+closed forms of a yarn resting on another and pulled along it."""
+import numpy as np
+import pytest
+
+from knitfem import BeamModel, Rod, Section
+from knitfem.beam.energy import EnergyProblem
+from knitfem.contact import friction_forces
+from knitfem.solve.minimize import RelaxationError, minimize
+
+MU = 0.3
+
+
+def resting_yarn(pull=0.0, friction=MU, slip=1e-3):
+    """A yarn (length 4, 16 elements) resting on a clamped parallel yarn
+    (length 6, 20 elements) under a line load q = 1 (gravity), frames and
+    lateral motion held (it can only slide along x and settle in z), pulled
+    along +x by ``pull`` at its end.  Normal force N = q L = 4."""
+    section = Section.circle(0.2, E=1e4, nu=0.3, density=1.0)
+    model = BeamModel()
+    base = model.add_rod(Rod.straight((-1, 0, 0), (1, 0, 0), 6.0, 20, section))
+    top = model.add_rod(Rod.straight((0, 0, 0.2 * 1.03), (1, 0, 0), 4.0, 16, section))
+    for i in range(21):
+        model.clamp(base, i)
+    for i in range(17):
+        model.fix(top, i, "uy rx ry rz")
+    model.gravity((0, 0, -1.0 / section.line_density))
+    if pull:
+        model.force(top, "end", (pull, 0, 0))
+    model.contact(factor=100.0, friction=friction, slip=slip)
+    return model
+
+
+def settle(model, state=None):
+    """Frictionless-free settling onto the base, then friction anchored there."""
+    problem = EnergyProblem(model, 1.0)
+    state = model.initial_state() if state is None else state
+    result = minimize(problem, state, tol=1e-10, max_iter=200)
+    model.contact_model.anchor_friction(result.state.x, result.state.q, carry=False)
+    return result.state
+
+
+def test_friction_gradient_and_hessian_are_exact_with_rotations(rng):
+    """Energy of a pressed, rotated state: central differences of the total
+    potential equal the gradient (1e-7) and of the gradient the Hessian
+    (friction part exact to 1e-3: its rotation chain keeps the leading term)."""
+    model = resting_yarn(pull=0.0)
+    state = settle(model)
+    problem = EnergyProblem(model, 1.0)
+    state = problem.retract(state, 1e-3 * rng.normal(size=int(problem.free.sum())))
+    E, g, H, _ = problem.evaluate(state, True)
+    for _ in range(3):
+        d = rng.normal(size=g.shape)
+        d /= np.linalg.norm(d)
+        h = 1e-6
+        Ep = problem.evaluate(problem.retract(state, h * d), False)[0]
+        Em = problem.evaluate(problem.retract(state, -h * d), False)[0]
+        assert abs((Ep - Em) / (2 * h) - g @ d) <= 1e-7 * max(1.0, abs(g @ d))
+        gp = problem.evaluate(problem.retract(state, h * d), False)[1]
+        gm = problem.evaluate(problem.retract(state, -h * d), False)[1]
+        assert np.linalg.norm((gp - gm) / (2 * h) - H @ d) <= 1e-3 * np.linalg.norm(H @ d)
+
+
+def test_friction_hessian_is_positive_semidefinite_and_force_bounded_by_coulomb(rng):
+    """Per anchor the Hessian (30 x 30 with rotations) has no negative
+    eigenvalue, and the friction force never exceeds mu f_n W, however far
+    the point has slipped."""
+    model = resting_yarn()
+    state = settle(model)
+    contact = model.contact_model
+    anchors = contact.anchors
+    a, b = contact.nodes[:, 0], contact.nodes[:, 1]
+    for scale in (1e-5, 1e-3, 1e-1):
+        x = state.x + scale * rng.normal(size=state.x.shape)
+        theta = scale * rng.normal(size=(len(a), 2, 3))
+        _, grads, hess = friction_forces(anchors, x[a], x[b], contact.slip, True, theta)
+        assert np.linalg.eigvalsh(hess).min() >= -1e-9 * np.abs(hess).max()
+        # the force on the slave point is the slot-0 + slot-1 part: (1 - xi + xi) f = f
+        force = np.linalg.norm(grads[:, 0:3] + grads[:, 3:6], axis=1)
+        assert np.all(force <= anchors.coefficient * (1 + 1e-12))
+
+
+def test_friction_forces_are_internal(rng):
+    """Friction forces sum to zero and, with the moments they put into the
+    yarns' frames, have no net moment (the friction acts where the surfaces
+    touch): |net moment| / (|force| x r) < 0.05 (the gap inside the
+    regularisation skin is the remaining lever)."""
+    model = resting_yarn()
+    state = settle(model)
+    problem = EnergyProblem(model, 1.0)
+    state = problem.retract(state, 1e-3 * rng.normal(size=int(problem.free.sum())))
+    contact = model.contact_model
+    _, groups = contact.blocks(state.x, state.q, tangent=False)
+    dofs, grads, _ = groups[1]
+    f = np.bincount(dofs.ravel(), grads.ravel(), minlength=contact.n_dofs).reshape(-1, 6)
+    net = f[:, :3].sum(axis=0)
+    moment = (np.cross(state.x, f[:, :3]) + f[:, 3:]).sum(axis=0)
+    scale = np.abs(f[:, :3]).sum(axis=0).max()
+    assert np.linalg.norm(net) <= 1e-12 * scale
+    assert np.linalg.norm(moment) <= 0.05 * scale * 0.1
+
+
+def test_pulled_yarn_holds_below_mu_N():
+    """Pulled at one end by 0.5 mu N, the yarn holds: the minimisation
+    converges, the friction carries the whole pull (1e-6), the far end sticks
+    (slip < eps) and only the pulled end slides a little (partial slip, as in
+    a Cattaneo-Mindlin contact: the yarn stretches), far less than a slide."""
+    N = 4.0
+    model = resting_yarn(pull=0.5 * MU * N)
+    free = resting_yarn(pull=0.0)
+    state = settle(free)
+    model.contact_model.anchor_friction(state.x, state.q, carry=False)
+    result = minimize(EnergyProblem(model, 1.0), state, tol=1e-9, max_iter=200)
+    contact = model.contact_model
+    a, b = contact.nodes[:, 0], contact.nodes[:, 1]
+    from knitfem.contact.friction import slips
+    u = slips(contact.anchors, result.state.x[a], result.state.x[b],
+              contact._turns(result.state.q)[1])
+    slip = np.linalg.norm(u, axis=1)
+    assert slip.min() < contact.slip and slip.max() < 10 * contact.slip
+    _, groups = contact.blocks(result.state.x, result.state.q, tangent=False)
+    dofs, grads, _ = groups[1]
+    fx = np.bincount(dofs.ravel(), grads.ravel(), minlength=contact.n_dofs).reshape(-1, 6)
+    top = slice(model.assembly.node_offset[1], model.assembly.node_offset[2])
+    assert np.isclose(fx[top, 0].sum(), 0.5 * MU * N, rtol=1e-6)
+
+
+def test_pulled_yarn_slides_above_mu_N():
+    """Pulled by 1.5 mu N there is no equilibrium: the yarn slides (the
+    minimisation runs out of iterations while the yarn keeps moving, or
+    stalls), and no state it passes holds more than mu N of friction."""
+    N = 4.0
+    model = resting_yarn(pull=1.5 * MU * N)
+    state = settle(resting_yarn(pull=0.0))
+    model.contact_model.anchor_friction(state.x, state.q, carry=False)
+    with pytest.raises(RelaxationError) as err:
+        minimize(EnergyProblem(model, 1.0), state, tol=1e-9, max_iter=60)
+    moved = err.value.state.x - state.x
+    top = slice(model.assembly.node_offset[1], model.assembly.node_offset[2])
+    assert moved[top, 0].min() > 10 * model.contact_model.slip
+
+
+def test_slip_carried_over_keeps_the_friction_force():
+    """Re-anchoring where a stuck yarn stands (new normal forces and frames)
+    keeps its friction: the state stays an equilibrium within the tolerance
+    of one more minimisation that needs few iterations."""
+    N = 4.0
+    model = resting_yarn(pull=0.5 * MU * N)
+    state = settle(resting_yarn(pull=0.0))
+    model.contact_model.anchor_friction(state.x, state.q, carry=False)
+    problem = EnergyProblem(model, 1.0)
+    first = minimize(problem, state, tol=1e-9, max_iter=200)
+    model.contact_model.anchor_friction(first.state.x, first.state.q, carry=True)
+    kept = problem.residual(problem.evaluate(first.state, False)[1])
+    again = minimize(problem, first.state, tol=1e-9, max_iter=200)
+    assert again.iterations <= 3
+    model.contact_model.anchor_friction(first.state.x, first.state.q, carry=False)
+    lost = problem.residual(problem.evaluate(first.state, False)[1])
+    assert lost > 1e3 * max(kept, 1e-12)
