@@ -3,8 +3,10 @@ stretching, bending and contact energies, dynamic relaxation.  Shares no
 mechanics code with the beam model: only geometry input and output formats."""
 from . import curve
 from .contact import ContactLaw
-from .model import BSplineModel, Yarn
+from .model import BSplineModel
+from .yarn import Yarn
+from .newton import relax_newton
 from .relax import RelaxationError, relax_dynamic, relax_static
 
 __all__ = ["curve", "BSplineModel", "ContactLaw", "RelaxationError", "Yarn", "relax_dynamic",
-           "relax_static"]
+           "relax_newton", "relax_static"]

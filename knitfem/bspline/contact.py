@@ -8,14 +8,19 @@ at distance d closer than 2r (r the yarn radius) and far apart along the yarn
 
 f(1) = f'(1) = 0, so the force is C0 and the energy C1 at first touch, and
 f -> infinity as x -> 0 (a barrier).  The broad phase is a cKDTree over the
-samples (pairs within 2r only); a scene without close pairs pays one tree
-query.  Optional contact damping (dynamic relaxation only) resists the
-relative velocity of each touching pair: its normal part (approach and
-separation) and its tangential part (sliding), each with its own coefficient.
+samples (pairs within 2r plus a skin, kept until some sample has moved half
+the skin: a Verlet list, see :class:`PairCache`).  Optional contact damping
+(dynamic relaxation only) resists the relative velocity of each touching
+pair: its normal part (approach and separation) and its tangential part
+(sliding), each with its own coefficient.  The pair loop is compiled with
+numba.  Units: k_contact energy per length^2, damping force per velocity
+per length^2.
 """
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
+from scipy import sparse
 from scipy.spatial import cKDTree
 
 
@@ -44,34 +49,94 @@ class ContactLaw:
         return self.damping > 0 or self.tangential_damping > 0
 
 
-def candidate_pairs(points, yarn, arclength, law):
-    """Index pairs (m, 2) of samples closer than 2r, dropping pairs on one yarn
-    closer than ``law.exclude`` in arclength (neighbours along the yarn)."""
-    pairs = cKDTree(points).query_pairs(2.0 * law.radius, output_type="ndarray")
+def candidate_pairs(points, yarn, arclength, law, reach=None, self_contact=None):
+    """Index pairs (m, 2) of samples closer than ``reach`` (default 2r),
+    dropping pairs on one yarn closer than ``law.exclude`` in arclength
+    (neighbours along the yarn), and all pairs on one yarn whose
+    ``self_contact`` flag (per yarn) is False."""
+    reach = 2.0 * law.radius if reach is None else reach
+    pairs = cKDTree(points).query_pairs(reach, output_type="ndarray")
     if pairs.shape[0] == 0:
         return pairs
     a, b = pairs[:, 0], pairs[:, 1]
-    keep = (yarn[a] != yarn[b]) | (np.abs(arclength[a] - arclength[b]) > law.exclude)
+    same = yarn[a] == yarn[b]
+    keep = ~same | (np.abs(arclength[a] - arclength[b]) > law.exclude)
+    if self_contact is not None:
+        keep &= ~same | np.asarray(self_contact, bool)[yarn[a]]
     return pairs[keep]
 
 
-def contact_energy(points, weights, pairs, law):
-    """Energy and gradient (n_samples, 3) with respect to the sample points.
+class PairCache:
+    """Verlet list: candidate pairs within 2r + skin, rebuilt only once some
+    sample has moved more than skin/2 since the last build (then no pair can
+    have come closer than 2r unseen).  ``builds`` counts the rebuilds."""
 
-    weights (n_samples,): l w of each sample (its share of arclength)."""
-    if pairs.shape[0] == 0:
-        return 0.0, np.zeros_like(points), 0
-    a, b = pairs[:, 0], pairs[:, 1]
-    delta = points[a] - points[b]
-    d = np.linalg.norm(delta, axis=1)
-    x = d / (2.0 * law.radius)
-    active = x < 1.0
-    a, b, delta, d, x = a[active], b[active], delta[active], d[active], x[active]
-    ww = law.stiffness * weights[a] * weights[b]
-    energy = float(np.sum(ww * (1.0 / x**2 - 2.0 + x**2)))
-    dfdx = -2.0 / x**3 + 2.0 * x
-    force = (ww * dfdx / (2.0 * law.radius) / d)[:, None] * delta     # dE/dp_a
-    return energy, _action_reaction(a, b, force, points.shape[0]), int(active.sum())
+    def __init__(self, law, yarn, arclength, skin, self_contact=None):
+        self.law, self.yarn, self.arclength = law, yarn, arclength
+        self.skin = float(skin)
+        self.self_contact = self_contact
+        self.points = None
+        self.pairs = None
+        self.builds = 0
+
+    def __call__(self, points):
+        if self.points is not None and points.shape == self.points.shape:
+            moved = np.max(np.einsum("ij,ij->i", points - self.points, points - self.points))
+            if moved <= (0.5 * self.skin) ** 2:
+                return self.pairs
+        self.pairs = candidate_pairs(points, self.yarn, self.arclength, self.law,
+                                     2.0 * self.law.radius + self.skin, self.self_contact)
+        self.points = points.copy()
+        self.builds += 1
+        return self.pairs
+
+
+@njit(cache=True)
+def _pair_forces(points, weights, pairs, k, r, grad):
+    energy = 0.0
+    active = 0
+    for m in range(pairs.shape[0]):
+        a, b = pairs[m, 0], pairs[m, 1]
+        delta = points[a] - points[b]
+        d2 = delta @ delta
+        if d2 >= 4.0 * r * r:
+            continue
+        d = np.sqrt(d2)
+        x = d / (2.0 * r)
+        ww = k * weights[a] * weights[b]
+        energy += ww * (1.0 / (x * x) - 2.0 + x * x)
+        force = ww * (-2.0 / x ** 3 + 2.0 * x) / (2.0 * r * d) * delta       # dE/dp_a
+        grad[a] += force
+        grad[b] -= force
+        active += 1
+    return energy, active
+
+
+def contact_energy(points, weights, pairs, law):
+    """Energy, gradient (n_samples, 3) with respect to the sample points and
+    the number of touching pairs.  weights (n_samples,): l w of each sample."""
+    grad = np.zeros_like(points)
+    if len(pairs) == 0:
+        return 0.0, grad, 0
+    E, n = _pair_forces(points, weights, np.asarray(pairs, np.int64), float(law.stiffness),
+                        float(law.radius), grad)
+    return float(E), grad, int(n)
+
+
+@njit(cache=True)
+def _pair_damping(points, velocities, weights, pairs, r, cn, ct, out):
+    for m in range(pairs.shape[0]):
+        a, b = pairs[m, 0], pairs[m, 1]
+        delta = points[a] - points[b]
+        d2 = delta @ delta
+        if d2 >= 4.0 * r * r:
+            continue
+        n = delta / np.sqrt(d2)
+        dv = velocities[a] - velocities[b]
+        dv_n = (dv @ n) * n
+        f = -weights[a] * weights[b] * (cn * dv_n + ct * (dv - dv_n))        # on sample a
+        out[a] += f
+        out[b] -= f
 
 
 def contact_damping(points, velocities, weights, pairs, law):
@@ -80,25 +145,60 @@ def contact_damping(points, velocities, weights, pairs, law):
     and across it with ``law.tangential_damping``, both scaled by l w l' w'
     like the contact energy.  Equal and opposite on the two samples, so it
     never drives the yarns: it only dissipates (power <= 0)."""
-    if pairs.shape[0] == 0 or not law.dissipates:
-        return np.zeros_like(points)
-    a, b = pairs[:, 0], pairs[:, 1]
-    delta = points[a] - points[b]
-    d = np.linalg.norm(delta, axis=1)
-    active = d < 2.0 * law.radius
-    a, b, delta, d = a[active], b[active], delta[active], d[active]
-    n = delta / d[:, None]
-    dv = velocities[a] - velocities[b]
-    dv_n = np.sum(dv * n, axis=1)[:, None] * n
-    ww = (weights[a] * weights[b])[:, None]
-    force = -ww * (law.damping * dv_n + law.tangential_damping * (dv - dv_n))    # on sample a
-    return _action_reaction(a, b, force, points.shape[0])
-
-
-def _action_reaction(a, b, force, n):
-    """(n, 3) array holding +force at samples a and -force at samples b."""
-    out = np.zeros((n, 3))
-    for k in range(3):
-        out[:, k] = (np.bincount(a, force[:, k], minlength=n)
-                     - np.bincount(b, force[:, k], minlength=n))
+    out = np.zeros_like(points)
+    if len(pairs) == 0 or not law.dissipates:
+        return out
+    _pair_damping(points, velocities, weights, np.asarray(pairs, np.int64), float(law.radius),
+                  float(law.damping), float(law.tangential_damping), out)
     return out
+
+
+@njit(cache=True)
+def _pair_hessians(points, weights, pairs, k, r, project):
+    """3x3 Hessian with respect to p_a - p_b of every pair (zero if apart)."""
+    out = np.zeros((pairs.shape[0], 3, 3))
+    for m in range(pairs.shape[0]):
+        a, b = pairs[m, 0], pairs[m, 1]
+        delta = points[a] - points[b]
+        d2 = delta @ delta
+        if d2 >= 4.0 * r * r:
+            continue
+        d = np.sqrt(d2)
+        x = d / (2.0 * r)
+        ww = k * weights[a] * weights[b]
+        f1 = ww * (-2.0 / x ** 3 + 2.0 * x) / (2.0 * r)            # dE/dd (< 0: repulsive)
+        f2 = ww * (6.0 / x ** 4 + 2.0) / (4.0 * r * r)             # d2E/dd2 (> 0)
+        n = delta / d
+        nn = np.outer(n, n)
+        lateral = f1 / d if not project else 0.0                    # negative: dropped if projected
+        out[m] = f2 * nn + lateral * (np.eye(3) - nn)
+    return out
+
+
+def contact_hessian(points, weights, pairs, law, project=False):
+    """Sparse Hessian (3 n_samples, 3 n_samples) of the contact energy with
+    respect to the sample points; ``project``: its positive semi-definite part."""
+    n = points.shape[0]
+    if len(pairs) == 0:
+        return sparse.csr_matrix((3 * n, 3 * n))
+    pairs = np.asarray(pairs, np.int64)
+    H = _pair_hessians(points, weights, pairs, float(law.stiffness), float(law.radius),
+                       bool(project))
+    a, b = pairs[:, 0], pairs[:, 1]
+    k3 = np.arange(3)
+    rows, cols, vals = [], [], []
+    for i_node, j_node, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
+        rows.append((3 * i_node[:, None, None] + k3[None, :, None]) + 0 * k3[None, None, :])
+        cols.append((3 * j_node[:, None, None] + k3[None, None, :]) + 0 * k3[None, :, None])
+        vals.append(sign * H)
+    rows, cols, vals = (np.concatenate([x.ravel() for x in arr]) for arr in (rows, cols, vals))
+    return sparse.csr_matrix((vals, (rows, cols)), shape=(3 * n, 3 * n))
+
+
+def overlap(points, pairs, law):
+    """Largest overlap of the yarn tubes, max(2r - d) / 2r over the pairs
+    (0 if no pair is closer than 2r)."""
+    if len(pairs) == 0:
+        return 0.0
+    d = np.linalg.norm(points[pairs[:, 0]] - points[pairs[:, 1]], axis=1)
+    return float(max(0.0, 1.0 - d.min() / (2.0 * law.radius)))

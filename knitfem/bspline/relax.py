@@ -54,6 +54,14 @@ def _residual(model, y):
     return E, g, float(np.linalg.norm(g) / max(ref, 1e-300))
 
 
+def converged(g, ref, rtol, model, atol=0.0):
+    """|g| <= rtol ref, or <= atol (a force scale the caller fixes, for states
+    whose forces all vanish), or below the model's round-off floor (a fixed
+    scale of the problem: no state can do better than that)."""
+    g = float(np.linalg.norm(g))
+    return g <= max(rtol * ref, atol, getattr(model, "roundoff", 0.0))
+
+
 def relax_static(model, y0, *, rtol=1e-6, max_iter=20000):
     """L-BFGS on the energy of the reduced coordinates."""
     history = []
@@ -63,15 +71,15 @@ def relax_static(model, y0, *, rtol=1e-6, max_iter=20000):
         return E, g
 
     def stop(intermediate_result):
-        r = _residual(model, intermediate_result.x)[2]
-        history.append(r)
-        if r <= rtol:
+        _, g, ref = model.reduced_energy(intermediate_result.x)
+        history.append(float(np.linalg.norm(g) / ref))
+        if converged(g, ref, rtol, model):
             raise StopIteration
 
     result = minimize(fun, np.asarray(y0, float), jac=True, method="L-BFGS-B", callback=stop,
                       options={"maxiter": max_iter, "maxcor": 30, "gtol": 0.0, "ftol": 0.0})
-    E, _, r = _residual(model, result.x)
-    if r > rtol:
+    E, g, r = _residual(model, result.x)
+    if not converged(g, model.reduced_energy(result.x)[2], rtol, model):
         raise RelaxationError(f"L-BFGS stopped after {result.nit} iterations with relative "
                               f"residual {r:.2e} > {rtol:.1e} ({result.message})",
                               result.x, history)
@@ -146,7 +154,7 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
                 if E <= E_checkpoint:
                     checkpoint, E_checkpoint = y.copy(), E
                 # at rest, not passing through equilibrium (ke: of the step that led here)
-                if r <= rtol and ke <= ke_rtol * max(abs(E), ref * length):
+                if converged(g, ref, rtol, model) and ke <= ke_rtol * max(abs(E), ref * length):
                     return Relaxed(y, step, r, E, "dynamic", history, dt)
             f = -g - damping * m * v
             if dissipative_contact:
