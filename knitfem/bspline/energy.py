@@ -88,20 +88,37 @@ def _local(q, seg, s, g, dB, ddB, B3):
 @njit(cache=True)
 def _elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, g_stretch, g_bend,
              e_stretch, e_bend):
-    H = np.zeros((9, 9))
     for s in range(seg.shape[0]):
+        i0, i1, i2, i3 = seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3]
+        d = (B3[0] * q[i0, 0] + B3[1] * q[i1, 0] + B3[2] * q[i2, 0] + B3[3] * q[i3, 0],
+             B3[0] * q[i0, 1] + B3[1] * q[i1, 1] + B3[2] * q[i2, 1] + B3[3] * q[i3, 1],
+             B3[0] * q[i0, 2] + B3[1] * q[i1, 2] + B3[2] * q[i2, 2] + B3[3] * q[i3, 2])
         for g in range(w.shape[0]):
-            a, b, d = _local(q, seg, s, g, dB, ddB, B3)
-            e, e_a, e_b, e_d = gausspoint.energy(a, b, d, rest[s, g], EA[s], 0.0, 0.0, 0.0,
-                                                 False, w[g], False, False, H)
+            a = (dB[g, 0] * q[i0, 0] + dB[g, 1] * q[i1, 0] + dB[g, 2] * q[i2, 0]
+                 + dB[g, 3] * q[i3, 0],
+                 dB[g, 0] * q[i0, 1] + dB[g, 1] * q[i1, 1] + dB[g, 2] * q[i2, 1]
+                 + dB[g, 3] * q[i3, 1],
+                 dB[g, 0] * q[i0, 2] + dB[g, 1] * q[i1, 2] + dB[g, 2] * q[i2, 2]
+                 + dB[g, 3] * q[i3, 2])
+            b = (ddB[g, 0] * q[i0, 0] + ddB[g, 1] * q[i1, 0] + ddB[g, 2] * q[i2, 0]
+                 + ddB[g, 3] * q[i3, 0],
+                 ddB[g, 0] * q[i0, 1] + ddB[g, 1] * q[i1, 1] + ddB[g, 2] * q[i2, 1]
+                 + ddB[g, 3] * q[i3, 1],
+                 ddB[g, 0] * q[i0, 2] + ddB[g, 1] * q[i1, 2] + ddB[g, 2] * q[i2, 2]
+                 + ddB[g, 3] * q[i3, 2])
+            e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], EA[s], 0.0, 0.0, 0.0,
+                                                   False, w[g])
             e_stretch[s] += e
             for j in range(4):
-                g_stretch[seg[s, j]] += dB[g, j] * e_a
-            e, e_a, e_b, e_d = gausspoint.energy(a, b, d, rest[s, g], 0.0, EI[s], kappa0[s, g],
-                                                 tau0[s, g], curved[s], w[g], False, False, H)
+                for k in range(3):
+                    g_stretch[seg[s, j], k] += dB[g, j] * e_a[k]
+            e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], 0.0, EI[s],
+                                                   kappa0[s, g], tau0[s, g], curved[s], w[g])
             e_bend[s] += e
             for j in range(4):
-                g_bend[seg[s, j]] += dB[g, j] * e_a + ddB[g, j] * e_b + B3[j] * e_d
+                for k in range(3):
+                    g_bend[seg[s, j], k] += (dB[g, j] * e_a[k] + ddB[g, j] * e_b[k]
+                                             + B3[j] * e_d[k])
 
 
 def elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, quad, g_stretch, g_bend):

@@ -43,7 +43,6 @@ def energy(a, b, d, l, EA, EI, k0, t0, curved, w, hessian, project, H):
     b, d).  ``project`` replaces H by its positive semi-definite part
     (negative eigenvalues set to 0: compressive stretching, the curvature
     and torsion terms are not convex)."""
-    eye = np.eye(3)
     a2 = a @ a
     na = np.sqrt(a2)
     ah = a / na
@@ -53,6 +52,7 @@ def energy(a, b, d, l, EA, EI, k0, t0, curved, w, hessian, project, H):
     e_b = np.zeros(3)
     e_d = np.zeros(3)
     if hessian:
+        eye = np.eye(3)
         H[:, :] = 0.0
         H[:3, :3] += EA * w * (np.outer(ah, ah) / l + strain / na * (eye - np.outer(ah, ah)))
     kb = 0.5 * EI * w
@@ -62,9 +62,10 @@ def energy(a, b, d, l, EA, EI, k0, t0, curved, w, hessian, project, H):
         G = a2 ** -2.5
         F_a, F_b = 2.0 * cross(b, c), 2.0 * cross(c, a)
         G_a = -5.0 * a2 ** -3.5 * a
-        F_aa = 2.0 * ((b @ b) * eye - np.outer(b, b))
-        F_bb = 2.0 * (a2 * eye - np.outer(a, a))
-        F_ab = 2.0 * (np.outer(a, b) - (a @ b) * eye - skew(c))
+        if hessian:
+            F_aa = 2.0 * ((b @ b) * eye - np.outer(b, b))
+            F_bb = 2.0 * (a2 * eye - np.outer(a, a))
+            F_ab = 2.0 * (np.outer(a, b) - (a @ b) * eye - skew(c))
         # kappa^2 |a| = F G
         e += kb * F * G
         e_a += kb * (F_a * G + F * G_a)
@@ -134,4 +135,70 @@ def energy(a, b, d, l, EA, EI, k0, t0, curved, w, hessian, project, H):
     if hessian and project:
         lam, V = np.linalg.eigh(0.5 * (H + H.T))
         H[:, :] = (V * np.maximum(lam, 0.0)) @ V.T
+    return e, e_a, e_b, e_d
+
+
+# -- the same energy and gradient without the Hessian, on 3-tuples (no heap
+# allocation: this is the hot loop of every relaxation step) ----------------------
+
+@njit(cache=True, inline="always")
+def _dot(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+@njit(cache=True, inline="always")
+def _x(u, v):
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+@njit(cache=True, inline="always")
+def _axpy(alpha, u, v):
+    """alpha u + v."""
+    return (alpha * u[0] + v[0], alpha * u[1] + v[1], alpha * u[2] + v[2])
+
+
+@njit(cache=True)
+def gradient(a, b, d, l, EA, EI, k0, t0, curved, w):
+    """:func:`energy` without the Hessian, for 3-tuples a, b, d: returns
+    (e, e_a, e_b, e_d) with tuple derivatives."""
+    zero = (0.0, 0.0, 0.0)
+    a2 = _dot(a, a)
+    na = np.sqrt(a2)
+    strain = na / l - 1.0
+    e = 0.5 * EA * strain * strain * l * w
+    e_a = _axpy(EA * strain * w / na, a, zero)
+    e_b = zero
+    e_d = zero
+    kb = 0.5 * EI * w
+    if kb == 0.0:
+        return e, e_a, e_b, e_d
+    c = _x(a, b)
+    F = _dot(c, c)
+    G = a2 ** -2.5
+    F_a = _x(b, c)                    # half of dF/da
+    F_b = _x(c, a)                    # half of dF/db
+    e += kb * F * G
+    e_a = _axpy(2.0 * kb * G, F_a, _axpy(-5.0 * kb * F * a2 ** -3.5, a, e_a))
+    e_b = _axpy(2.0 * kb * G, F_b, e_b)
+    if k0 != 0.0:
+        e += kb * k0 * k0 * na
+        e_a = _axpy(kb * k0 * k0 / na, a, e_a)
+        P = np.sqrt(F)
+        if P > 1e-14 * a2:
+            m = -2.0 * kb * k0
+            Q = 1.0 / a2
+            e += m * P * Q
+            # P_a = F_a / P (F_a is half of dF/da), Q_a = -2 a / a2^2
+            e_a = _axpy(m * Q / P, F_a, _axpy(-2.0 * m * P / (a2 * a2), a, e_a))
+            e_b = _axpy(m * Q / P, F_b, e_b)
+    if curved and F > 1e-14 * a2 * a2:
+        T = _dot(c, d)
+        f = T / F - t0
+        # tau_x = T_x / F - T F_x / F^2 with T_a = b x d, T_b = d x a, T_d = c, F_x = 2 (F_a, F_b, 0)
+        k = 2.0 * kb * f * na
+        e += kb * f * f * na
+        e_a = _axpy(k / F, _x(b, d), _axpy(-2.0 * k * T / (F * F), F_a,
+                                           _axpy(kb * f * f / na, a, e_a)))
+        e_b = _axpy(k / F, _x(d, a), _axpy(-2.0 * k * T / (F * F), F_b, e_b))
+        e_d = _axpy(k / F, c, e_d)
     return e, e_a, e_b, e_d

@@ -4,9 +4,9 @@ Explicit relaxation stalls on the soft modes of a knit (sliding, the swatch
 rolling up); Newton with the exact Hessian converges there in a handful of
 steps.  Globalised for states far from equilibrium, where the Hessian is
 indefinite: Levenberg-Marquardt shift H + mu D (D the Hessian's diagonal),
-mu raised until the direction descends and the step lowers the energy
-(Armijo backtracking), lowered after every full step; every step capped so
-no control point moves more than ``max_move`` (a fraction of the yarn radius:
+mu raised until the direction descends, then steered by how well the
+quadratic model predicted the energy drop (a trust region in disguise);
+every step capped so no control point moves more than ``max_move`` (a fraction of the yarn radius:
 no yarn can pass through another between two energy checks).  A free body's
 six rigid motions make H singular; the shift (never below ``mu_min``) keeps
 the system solvable and the gradient has no rigid component anyway.
@@ -34,12 +34,15 @@ def relax_newton(model, y0, *, rtol=1e-8, atol=0.0, max_iter=100, max_move=None,
 
     atol: absolute force norm that also counts as converged (for states with
     no forces left, where a relative residual means nothing); max_move:
-    largest control-point move per step (default r/4 of the contact
-    law, else 1/4 of the shortest segment); callback(y, residual) per step."""
+    largest control-point move per step (default r/4 of the contact law,
+    unlimited without contact); callback(y, residual) per step.  mu follows
+    the ratio rho of the energy drop to the drop the quadratic model
+    predicts (Levenberg-Marquardt): rho > 3/4 lowers it, rho < 1/4 raises it,
+    a step that does not lower the energy is refused."""
     y = np.asarray(y0, float).copy()
     if max_move is None:
         contact = getattr(model, "contact", None)
-        max_move = 0.25 * (contact.radius if contact is not None else float(model.rest.min()))
+        max_move = 0.25 * contact.radius if contact is not None else np.inf
     Z, _ = model.reduction()
     E, g, ref = model.reduced_energy(y)
     history = [float(np.linalg.norm(g) / ref)]
@@ -53,8 +56,17 @@ def relax_newton(model, y0, *, rtol=1e-8, atol=0.0, max_iter=100, max_move=None,
             H = model.reduced_hessian(y)
             D = np.maximum(np.abs(H.diagonal()), 1e-300)
             step, mu = _descent(H, D, g, mu, mu_min, report)
-            y, E, g, ref, full = _line_search(model, Z, y, E, g, step, max_move)
-            mu = max(mu_min, mu * (0.1 if full else 10.0))
+            step *= min(1.0, max_move / _largest_move(Z, step))
+            predicted = -(g @ step + 0.5 * step @ (H @ step))
+            E_new, g_new, ref_new = model.reduced_energy(y + step)
+            rho = (E - E_new) / predicted if predicted > 0 else -1.0
+            if predicted <= 1e-14 * abs(E):          # round-off level: judge by the force
+                rho = 1.0 if np.linalg.norm(g_new) < np.linalg.norm(g) else -1.0
+            if np.isfinite(E_new) and rho > 1e-4:
+                y, E, g, ref = y + step, E_new, g_new, ref_new
+                mu = max(mu_min, mu / 4.0) if rho > 0.75 else (mu * 4.0 if rho < 0.25 else mu)
+            else:
+                mu *= 4.0
             history.append(float(np.linalg.norm(g) / ref))
             if bar is not None:
                 bar.update()
@@ -68,6 +80,11 @@ def relax_newton(model, y0, *, rtol=1e-8, atol=0.0, max_iter=100, max_move=None,
             bar.close()
     raise RelaxationError(f"Newton did not reach relative residual {rtol:.1e} in {max_iter} "
                           f"steps (last {history[-1]:.2e})", y, history)
+
+
+def _largest_move(Z, step):
+    move = (Z @ step).reshape(-1, 3)
+    return max(float(np.sqrt((move**2).sum(axis=1)).max()), 1e-300)
 
 
 def _bar(progress, total):
@@ -102,21 +119,3 @@ def _descent(H, D, g, mu, mu_min, report):
         mu = max(mu * 10.0, mu_min)
     raise RelaxationError(f"no descent direction at {n} unknowns even with shift {mu:.1e}",
                           None, [])
-
-
-def _line_search(model, Z, y, E, g, step, max_move):
-    """Armijo backtracking on the energy along ``step``, first capped so no
-    control point moves more than ``max_move``; (y, E, g, ref, full step?)."""
-    move = np.abs(Z @ step).reshape(-1, 3)
-    biggest = float(np.sqrt((move**2).sum(axis=1)).max())
-    t = min(1.0, max_move / max(biggest, 1e-300))
-    slope = float(g @ step)
-    for _ in range(30):
-        y_new = y + t * step
-        E_new, g_new, ref_new = model.reduced_energy(y_new)
-        if np.isfinite(E_new) and E_new <= E + 1e-4 * t * slope:
-            return y_new, E_new, g_new, ref_new, t == 1.0
-        t *= 0.5
-    # no decrease found (round-off level): keep the state, the caller shifts more
-    E, g, ref = model.reduced_energy(y)
-    return y, E, g, ref, False
