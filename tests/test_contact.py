@@ -169,8 +169,9 @@ def test_master_curve_keeps_the_force_continuous_across_a_kink():
     """A slave segment slid along the concave side of a master polyline with a
     20 degree kink: as its Gauss points pass from one master segment to the
     next, the force on it changes smoothly (largest change between samples
-    < 2x the median); against the bare chords it jumps (> 10x), which is what
-    made Newton linear there."""
+    < 2x the median); against the bare chords (each chord its own stretch of
+    master yarn) it jumps (> 3x: a point facing the kink sees both chords),
+    which is what made Newton linear there."""
     th = np.radians(20.0)
     master = np.array([(-3.0, 0, 0), (-2.0, 0, 0), (-1.0, 0, 0), (0.0, 0, 0)]
                       + [(k * np.cos(th), 0.0, -k * np.sin(th)) for k in (1, 2, 3)])
@@ -193,7 +194,7 @@ def test_master_curve_keeps_the_force_continuous_across_a_kink():
 
     xs = np.linspace(-0.3, 0.3, 601)
     for smooth, bound in ((True, lambda j: j.max() < 2 * np.median(j)),
-                          (False, lambda j: j.max() > 10 * np.median(j))):
+                          (False, lambda j: j.max() > 3 * np.median(j))):
         jumps = np.linalg.norm(np.diff([force(x, smooth) for x in xs], axis=0), axis=1)
         assert bound(jumps)
 

@@ -44,7 +44,10 @@ def test_residual_is_the_energy_gradient_along_spatial_increments(rng):
 
 
 def test_tangent_matches_central_differences_of_the_residual(rng):
-    """f (element level): large relative rotations up to ~2 rad, sign-flipped quaternions."""
+    """f (element level): large relative rotations up to ~2 rad, sign-flipped
+    quaternions.  Relative error < 1e-9: central differences with step 1e-6
+    resolve ~2e-10 (truncation ~h^2, round-off ~eps/h balance there); measured
+    1.4e-10 ... 2.0e-10 over five random sets of elements."""
     state, data = random_elements(rng, spread=2.0)
     _, r, K = forces(state, data)
     for _ in range(3):
@@ -52,7 +55,7 @@ def test_tangent_matches_central_differences_of_the_residual(rng):
         e = 1e-6
         fd = (forces(moved(state, z, e), data)[1] - forces(moved(state, z, -e), data)[1]) / (2 * e)
         exact = np.einsum("nij,nj->ni", K, z)
-        assert np.linalg.norm(fd - exact) < 1e-6 * np.linalg.norm(exact)
+        assert np.linalg.norm(fd - exact) < 1e-9 * np.linalg.norm(exact)
 
 
 def left_jacobian(psi):

@@ -109,3 +109,49 @@ def test_bspline_model_agrees_with_the_beam_without_torsional_stiffness():
     assert abs(beam.critical_c_over_L - yarn.critical_c_over_L) < 0.01
     lo, hi = yarn.critical_bracket
     assert hi - lo <= 2e-3 and z_yarn[0.8] < 1e-4
+
+
+def test_sampling_just_below_the_critical_point_lands_on_the_popped_branch():
+    """Issue 10, case 4: samples a few 1e-4 below c_crit used to land from the
+    bifurcation point and stay in the (unstable) plane.  Now every sample
+    below c_crit is popped (z > 0) and stable, and the heights follow the
+    normal form of a supercritical pitchfork, z^2 / (c_crit - c) constant
+    (within 2 % over the first 6e-4 below c_crit; measured 0.04 %)."""
+    result = popup(SRod(), c_from=0.733, c_to=0.730, c_step=1e-4)
+    c_crit = result.critical_c_over_L
+    below = [s for s in result.samples if s.c_over_L < c_crit]
+    assert len(below) >= 25
+    assert all(s.stable and s.max_abs_z_over_L > 0 for s in below)
+    assert all(s.stable and s.max_abs_z_over_L == 0 for s in result.samples
+               if s.c_over_L > c_crit)
+    near = [s for s in below if c_crit - s.c_over_L < 6e-4]
+    ratio = [s.max_abs_z_over_L**2 / (c_crit - s.c_over_L) for s in near]
+    assert len(near) >= 5 and np.ptp(ratio) < 0.02 * np.mean(ratio)
+    state = result.state_at(c_crit - 1e-4)
+    _, J, _, _ = result.problem.evaluate(state, c_crit - 1e-4, True)
+    from knitfem.solve.stability import negative_eigenvalue_count
+    assert np.abs(state.x[:, 2]).max() > 0.004 * result.srod.length
+    assert negative_eigenvalue_count(J) == 0
+
+
+def test_popup_runs_small_problems_on_one_thread():
+    """Issue 10, case 7: the sweep pins BLAS (threadpoolctl) and numba to one
+    thread while it runs (seen from inside, through the progress callback),
+    and restores the pools afterwards; pin_threads=False leaves them."""
+    import numba
+    from threadpoolctl import threadpool_info
+    def pools():
+        return {p["filepath"]: p["num_threads"] for p in threadpool_info()}
+
+    before, seen = pools(), []
+
+    def look(point):
+        seen.append((pools(), numba.get_num_threads()))
+
+    popup(SRod(elements=12), c_from=0.8, c_to=0.75, c_step=0.05, progress=look)
+    assert seen and all(set(blas.values()) == {1} and nb == 1 for blas, nb in seen)
+    assert all(pools()[k] == v for k, v in before.items())
+    seen.clear()
+    popup(SRod(elements=12), c_from=0.8, c_to=0.75, c_step=0.05, progress=look,
+          pin_threads=False)
+    assert seen and all(blas[k] == v for blas, _ in seen for k, v in before.items())

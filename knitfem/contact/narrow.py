@@ -140,14 +140,29 @@ def _masters_of_slaves(pairs, rank, nseg):
         a, b = (pairs[n, 0], pairs[n, 1]) if slave_first[n] else (pairs[n, 1], pairs[n, 0])
         master[fill[a]], index[fill[a]] = b, n
         fill[a] += 1
+    # each slave's masters in segment order, so that neighbouring master segments
+    # (one stretch of master yarn) follow each other (insertion sort: few per slave)
+    for a in range(nseg):
+        for t in range(start[a] + 1, start[a + 1]):
+            b, n = master[t], index[t]
+            u = t - 1
+            while u >= start[a] and master[u] > b:
+                master[u + 1], index[u + 1] = master[u], index[u]
+                u -= 1
+            master[u + 1], index[u + 1] = b, n
     return start, master, index
 
 
 @njit(cache=True)
 def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, per_diameter,
                least, k, g0, tangent, x0p, x1p, c_dt):
-    """Slave Gauss points against their master curves; each slave Gauss point
-    interacts with the one master of smallest gap."""
+    """Slave Gauss points against their master curves.  A slave Gauss point
+    interacts with every stretch of master yarn within reach (a run of
+    neighbouring candidate master segments), with the segment of smallest gap
+    in each stretch: a yarn squeezed between two others feels both, and the
+    energy stays smooth where two stretches are equally near (taking only the
+    nearer one would make it the maximum of two penalties: a kink that stalls
+    minimisers)."""
     nseg = x0.shape[0]
     stats = np.array([np.inf, 0.0, 0.0])            # min gap, active points, total force
     seg_gap = np.full(nseg, np.inf)                 # smallest gap seen by each segment
@@ -168,10 +183,14 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
     buf = (np.empty(4), np.empty(4), np.empty(4), np.empty(3), np.empty(3), np.empty(3),
            np.empty(3), np.empty(SLOTS), np.empty(3 * SLOTS), np.empty(3 * SLOTS))
     N, dN, ddN, u, c1, c2, p = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
-    # pass 1: the master of every slave Gauss point within reach (no allocation)
-    hits_A = np.empty(nseg * MAX_ORDER, np.int64)
-    hits_q = np.empty(nseg * MAX_ORDER, np.int64)
-    hits_t = np.empty(nseg * MAX_ORDER, np.int64)
+    # pass 1: the master of every slave Gauss point in every stretch within reach
+    capacity = 0
+    for A in range(nseg):
+        capacity += _points(length[A], 2.0 * radius[A], per_diameter, least) * \
+            (start[A + 1] - start[A])
+    hits_A = np.empty(capacity, np.int64)
+    hits_q = np.empty(capacity, np.int64)
+    hits_t = np.empty(capacity, np.int64)
     nhits = 0
     for A in range(nseg):
         if start[A] == start[A + 1]:
@@ -183,10 +202,24 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
             for j in range(3):
                 p[j] = (1.0 - xi) * a0[j] + xi * a1[j]
             best, best_gap, best_inside = -1, np.inf, False
-            for t in range(start[A], start[A + 1]):
+            last = -2
+            for t in range(start[A], start[A + 1] + 1):
+                B = master[t] if t < start[A + 1] else -1
+                if best >= 0 and (t == start[A + 1] or B != nxt[last]):
+                    # the stretch ended: its nearest segment carries the contact
+                    if best_gap < stats[0]:
+                        stats[0] = best_gap
+                    seg_gap[A] = min(seg_gap[A], best_gap)
+                    seg_gap[master[best]] = min(seg_gap[master[best]], best_gap)
+                    if best_gap < g0:
+                        hits_A[nhits], hits_q[nhits], hits_t[nhits] = A, q, best
+                        nhits += 1
+                    best, best_gap, best_inside = -1, np.inf, False
+                if t == start[A + 1]:
+                    break
+                last = B
                 if not near[t]:
                     continue
-                B = master[t]
                 R = radius[A] + radius[B]
                 # the curve lies within ``bulge`` of its chord: far masters cost one distance
                 gap = chord_distance(p[0], p[1], p[2], x0[B], x1[B]) - R
@@ -196,14 +229,6 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
                     gap, inside = d - R, not clamped
                 if (inside and not best_inside) or (inside == best_inside and gap < best_gap):
                     best, best_gap, best_inside = t, gap, inside
-            if best_gap < stats[0]:
-                stats[0] = best_gap
-            if best >= 0:
-                seg_gap[A] = min(seg_gap[A], best_gap)
-                seg_gap[master[best]] = min(seg_gap[master[best]], best_gap)
-            if best_gap < g0:
-                hits_A[nhits], hits_q[nhits], hits_t[nhits] = A, q, best
-                nhits += 1
     # compact numbering of the (slave, master) pairs that carry force
     slot = np.full(pairs.shape[0], -1, np.int64)
     active = 0

@@ -28,7 +28,12 @@ def _column(w_over_L, c_grid, scene):
     srod = SRod(w=w_over_L * scene.get("length", 105.0), **scene)
     feasible = c_grid[c_grid < 0.985 * srod.c_max / srod.length]
     step = c_grid[0] - c_grid[1]
-    result = popup(srod, feasible[0], c_grid[-1], step)
+    try:
+        result = popup(srod, feasible[0], c_grid[-1], step)
+    except RuntimeError as err:
+        # NewtonError / ContinuationError carry states and do not unpickle: sent
+        # back as they are they break the whole process pool, losing every column
+        raise RuntimeError(f"{type(err).__name__}: {err}") from None
     height = np.full(c_grid.shape, np.nan)
     stable = np.zeros(c_grid.shape, bool)
     offset = c_grid.shape[0] - feasible.shape[0]

@@ -26,6 +26,7 @@ from ..beam.section import check_positive
 from ..geometry import planar_elastica
 from ..solve.continuation import Continuation, continuation, switch_branch
 from ..solve.stability import negative_eigenvalue_count
+from ..threads import threads_for
 
 OUT_OF_PLANE = [2, 3, 4]      # uz, rx, ry
 
@@ -172,18 +173,26 @@ def warm_up():
     element_forces(x, x + [1, 0, 0], q, q, np.ones(1), one, 0 * one, one, one)
 
 
-def popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, ds=0.2, progress=None):
+def popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, ds=0.2, progress=None,
+          pin_threads=True):
     """Trace the pop-up of ``srod`` as c/L goes from c_from down to c_to.
 
     Returns a :class:`PopupResult`: the planar branch with its events, both
     popped branches, and the stable path sampled at c_from, c_from - c_step,
-    ... (planar above the critical point, popped below).
+    ... (planar above the critical point, popped below).  ``pin_threads``:
+    run on one BLAS and numba thread (:func:`knitfem.threads.threads_for`; a
+    small problem runs faster so).
     """
     c_from = srod.check_c("c_from", c_from)
     c_to = srod.check_c("c_to", c_to)
     if not c_to < c_from:
         raise ValueError(f"c_to must be smaller than c_from, got c_from = {c_from}, c_to = {c_to}")
     c_step = check_positive("c_step", c_step)
+    with threads_for(6 * (srod.elements + 1), pin_threads):
+        return _popup(srod, c_from, c_to, c_step, ds, progress)
+
+
+def _popup(srod, c_from, c_to, c_step, ds, progress):
     warm_up()
     t0 = time.perf_counter()
     model = srod.model(c_from)
@@ -209,18 +218,41 @@ def popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, ds=0.2, progress=None):
 def stable_state(problem, planar, popped, c_crit, c):
     """Equilibrium on the stable path at c/L: the planar branch above the
     critical point, the first popped branch below; Newton at fixed c from the
-    nearest continuation point."""
+    nearest continuation point of that branch.
+
+    Below c_crit the bifurcation point itself (the popped branches' first
+    point, z = 0) is never the start: Newton at fixed c from there stays on
+    the planar branch, unstable below c_crit.  From a popped point, the
+    predictor along its tangent lands between the plane and that point (on
+    the parabola c_crit - c ~ z^2 of a pitchfork, at (z1^2 + z^2) / 2 z1 > z),
+    where Newton converges to the popped state.  Raises RuntimeError if the
+    landing still ends in the plane."""
     below = popped and c_crit is not None and c < c_crit
-    branch = popped[0] if below else planar
-    near = min(branch.points, key=lambda p: abs(p.lam - c))
+    points = planar.points
+    if below:
+        points = [p for p in popped[0].points if p.lam < c_crit]
+        if not points:
+            raise RuntimeError(f"no popped branch point below c_crit/L = {c_crit:.8g} to land "
+                               f"at c/L = {c:.8g} from")
+    near = min(points, key=lambda p: abs(p.lam - c))
     if near.lam == c:
         return near.state
-    return Continuation(problem).land(near, c).state
+    state = Continuation(problem).land(near, c).state
+    if below and not _off_plane(state):
+        raise RuntimeError(f"landing on the popped branch at c/L = {c:.8g} (below c_crit/L = "
+                           f"{c_crit:.8g}) from c/L = {near.lam:.8g} fell into the plane")
+    return state
+
+
+def _off_plane(state):
+    """Whether a state has left the x-y plane beyond round-off."""
+    return max_abs_z(state) > 1e-9 * float(np.max(np.abs(state.x[:, :2])))
 
 
 def _sample(problem, planar, popped, critical, c_from, c_to, c_step, L):
     """The stable path at c_from, c_from - c_step, ... >= c_to."""
     grid = c_from - c_step * np.arange(int(np.floor((c_from - c_to) / c_step + 1e-9)) + 1)
+    grid = np.round(grid, 12)           # 0.7324, not 0.7323999999999999, in the output
     c_crit = None if critical is None else critical.lam
     out = []
     for c in grid:

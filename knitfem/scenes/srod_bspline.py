@@ -22,6 +22,7 @@ import numpy as np
 
 from ..bspline import BSplineModel, Yarn, curve, relax_dynamic, relax_static, stability
 from ..geometry import planar_elastica
+from ..threads import threads_for
 from .srod import SRod
 
 _RELAX = {"static": relax_static, "dynamic": relax_dynamic}
@@ -173,10 +174,13 @@ def _bisect(march, samples, last_planar, threshold, c_tol, bar):
 
 
 def bspline_popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, segments=32, method="static",
-                  imperfection=1e-3, threshold=5e-3, c_tol=2e-3, rtol=1e-6, progress=False):
+                  imperfection=1e-3, threshold=5e-3, c_tol=2e-3, rtol=1e-6, progress=False,
+                  pin_threads=True):
     """Pop-up of ``srod`` in the B-spline model, sampled at c_from, c_from -
     c_step, ... >= c_to; returns a :class:`BSplinePopup`.  progress: a tqdm bar
-    on stderr, one tick per relaxation (grid samples, then bisection steps)."""
+    on stderr, one tick per relaxation (grid samples, then bisection steps).
+    pin_threads: one BLAS and numba thread for this small problem
+    (:func:`knitfem.threads.threads_for`)."""
     c_from = srod.check_c("c_from", c_from)
     c_to = srod.check_c("c_to", c_to)
     if not c_to < c_from:
@@ -186,16 +190,18 @@ def bspline_popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, segments=32, met
     if not 0 < imperfection < threshold:
         raise ValueError(f"need 0 < imperfection < threshold, got {imperfection}, {threshold}")
     t0 = time.perf_counter()
-    model = srod_yarn_model(srod, c_from, segments)
-    march = _Marcher(srod, model, method, imperfection, rtol)
-    q = model.control_points(model.reduce(model.yarns[0].control))
-    grid = c_from - c_step * np.arange(int(np.floor((c_from - c_to) / c_step + 1e-9)) + 1)
-    bar = _Progress(progress, len(grid))
-    try:                                        # close the bar also when a relaxation fails
-        samples, last_planar = _sweep(march, grid, q, threshold, bar)
-        critical, bracket = _bisect(march, samples, last_planar, threshold, c_tol, bar)
-    finally:
-        bar.close()
+    model = srod_yarn_model(srod, c_from, segments)          # validates segments
+    with threads_for(3 * (segments + 3), pin_threads):
+        march = _Marcher(srod, model, method, imperfection, rtol)
+        q = model.control_points(model.reduce(model.yarns[0].control))
+        grid = c_from - c_step * np.arange(int(np.floor((c_from - c_to) / c_step + 1e-9)) + 1)
+        grid = np.round(grid, 12)       # 0.7324, not 0.7323999999999999, in the output
+        bar = _Progress(progress, len(grid))
+        try:                                    # close the bar also when a relaxation fails
+            samples, last_planar = _sweep(march, grid, q, threshold, bar)
+            critical, bracket = _bisect(march, samples, last_planar, threshold, c_tol, bar)
+        finally:
+            bar.close()
     elapsed = time.perf_counter() - t0
     return BSplinePopup(srod, int(segments), method, c_from, c_to, critical, bracket, samples,
                         elapsed, model)
