@@ -6,7 +6,7 @@ from knitfem.bspline import BSplineModel, ContactLaw, Yarn, relax_newton, relax_
 from knitfem.bspline.energy import curvature
 
 
-def helix_pair(curved=False):
+def helix_pair(curved=False, form="kaldor"):
     """Two helices wound into each other (contact active), one of them
     naturally curved, gravity, a dead load and a tie between them."""
     s = np.linspace(0, 4 * np.pi, 300)
@@ -14,18 +14,18 @@ def helix_pair(curved=False):
     yarns = [Yarn.through(helix, 24, 50.0, 2.0, radius=0.5,
                           natural="curved" if curved else "shape"),
              Yarn.through(helix + [0.4, 0.0, 0.1], 20, 40.0, 1.0, radius=0.5)]
-    model = BSplineModel(yarns, contact=ContactLaw(3.0, 0.5), gravity=(0, 0, -1.0))
+    model = BSplineModel(yarns, contact=ContactLaw(3.0, 0.5, form=form), gravity=(0, 0, -1.0))
     model.loads.add(1, 20.0, (0.3, -0.2, 0.5))
     model.ties.add(0, 0.0, 1, 0.5, 7.0)
     return model
 
 
-@pytest.mark.parametrize("curved", [False, True])
-def test_hessian_matches_central_differences_of_the_gradient(rng, curved):
+@pytest.mark.parametrize("curved,form", [(False, "kaldor"), (True, "kaldor"), (True, "smooth")])
+def test_hessian_matches_central_differences_of_the_gradient(rng, curved, form):
     """Exact Hessian (stretching, bending with and without natural curvature,
-    contact, a tie) against central differences of the exact gradient: 1e-6
-    relative (measured ~1e-9)."""
-    model = helix_pair(curved)
+    contact in both forms, a tie) against central differences of the exact
+    gradient: 1e-6 relative (measured ~1e-9)."""
+    model = helix_pair(curved, form)
     q = model._initial() + 0.05 * rng.normal(size=(model.n, 3))
     assert model.energy_parts(q)["contact"] > 0 and model.energy_parts(q)["ties"] > 0
     H = model.hessian(q)
@@ -38,8 +38,9 @@ def test_hessian_matches_central_differences_of_the_gradient(rng, curved):
         assert np.linalg.norm(fd - Hv) < 1e-6 * np.linalg.norm(Hv)
 
 
-def test_gradient_with_natural_curvature_matches_central_differences(rng):
-    model = helix_pair(curved=True)
+@pytest.mark.parametrize("form", ["kaldor", "smooth"])
+def test_gradient_with_natural_curvature_matches_central_differences(rng, form):
+    model = helix_pair(curved=True, form=form)
     q = model._initial() + 0.05 * rng.normal(size=(model.n, 3))
     E, g, _ = model.energy(q)
     for _ in range(3):

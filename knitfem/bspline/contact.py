@@ -7,7 +7,9 @@ at distance d closer than 2r (r the yarn radius) and far apart along the yarn
     E = k_contact l l' w w' f(d / 2r),   f(x) = 1/x^2 - 2 + x^2   (x < 1), 0 else,
 
 f(1) = f'(1) = 0, so the force is C0 and the energy C1 at first touch, and
-f -> infinity as x -> 0 (a barrier).  The broad phase is a cKDTree over the
+f -> infinity as x -> 0 (a barrier).  ``form="smooth"`` uses (1 - x^2)^3 / x^2
+instead: the same barrier, and a stiffness that also starts from 0 (energy
+C2), which Newton needs (not the paper's law).  The broad phase is a cKDTree over the
 samples (pairs within 2r plus a skin, kept until some sample has moved half
 the skin: a Verlet list, see :class:`PairCache`).  Optional contact damping
 (dynamic relaxation only) resists the relative velocity of each touching
@@ -24,6 +26,21 @@ from scipy import sparse
 from scipy.spatial import cKDTree
 
 
+FORMS = {"kaldor": 0, "smooth": 1}
+
+
+@njit(cache=True, inline="always")
+def _law(u, smooth):
+    """f, df/du, d2f/du2 at u = (d / 2r)^2 < 1: Kaldor's f = 1/u - 2 + u =
+    (1 - u)^2 / u (C1 at u = 1: its second derivative jumps from 0 to 2), or
+    the smooth variant (1 - u)^3 / u = 1/u - 3 + 3u - u^2 (C2: the same 1/u
+    barrier, a continuous stiffness for Newton)."""
+    if smooth:
+        return 1.0 / u - 3.0 + 3.0 * u - u * u, -1.0 / (u * u) + 3.0 - 2.0 * u, \
+            2.0 / (u * u * u) - 2.0
+    return 1.0 / u - 2.0 + u, 1.0 - 1.0 / (u * u), 2.0 / (u * u * u)
+
+
 @dataclass
 class ContactLaw:
     stiffness: float                  # k_contact (energy per length^2)
@@ -31,6 +48,7 @@ class ContactLaw:
     exclude: float = None             # skip pairs closer than this along one yarn (default 4r)
     damping: float = 0.0              # normal damping (force per velocity per length^2)
     tangential_damping: float = 0.0   # tangential damping (same units)
+    form: str = "kaldor"              # "kaldor" (1 - u)^2 / u or "smooth" (1 - u)^3 / u
 
     def __post_init__(self):
         for name in ("stiffness", "radius"):
@@ -43,6 +61,12 @@ class ContactLaw:
                 raise ValueError(f"contact {name} must be finite and in [0, inf), got {v!r}")
         if self.exclude is None:
             self.exclude = 4.0 * self.radius
+        if self.form not in FORMS:
+            raise ValueError(f"contact form must be one of {tuple(FORMS)}, got {self.form!r}")
+
+    @property
+    def smooth(self):
+        return FORMS[self.form]
 
     @property
     def dissipates(self):
@@ -92,22 +116,29 @@ class PairCache:
 
 
 @njit(cache=True)
-def _pair_forces(points, weights, pairs, k, r, grad):
+def _pair_forces(points, weights, pairs, k, r, smooth, grad):
     energy = 0.0
     active = 0
+    reach2 = 4.0 * r * r
     for m in range(pairs.shape[0]):
         a, b = pairs[m, 0], pairs[m, 1]
-        delta = points[a] - points[b]
-        d2 = delta @ delta
-        if d2 >= 4.0 * r * r:
+        dx = points[a, 0] - points[b, 0]
+        dy = points[a, 1] - points[b, 1]
+        dz = points[a, 2] - points[b, 2]
+        d2 = dx * dx + dy * dy + dz * dz
+        if d2 >= reach2:
             continue
-        d = np.sqrt(d2)
-        x = d / (2.0 * r)
+        u = d2 / reach2                                    # (d / 2r)^2
         ww = k * weights[a] * weights[b]
-        energy += ww * (1.0 / (x * x) - 2.0 + x * x)
-        force = ww * (-2.0 / x ** 3 + 2.0 * x) / (2.0 * r * d) * delta       # dE/dp_a
-        grad[a] += force
-        grad[b] -= force
+        f, f_u, _ = _law(u, smooth)
+        energy += ww * f
+        c = 2.0 * ww * f_u / reach2                        # dE/dp_a = c delta
+        grad[a, 0] += c * dx
+        grad[a, 1] += c * dy
+        grad[a, 2] += c * dz
+        grad[b, 0] -= c * dx
+        grad[b, 1] -= c * dy
+        grad[b, 2] -= c * dz
         active += 1
     return energy, active
 
@@ -119,7 +150,7 @@ def contact_energy(points, weights, pairs, law):
     if len(pairs) == 0:
         return 0.0, grad, 0
     E, n = _pair_forces(points, weights, np.asarray(pairs, np.int64), float(law.stiffness),
-                        float(law.radius), grad)
+                        float(law.radius), law.smooth, grad)
     return float(E), grad, int(n)
 
 
@@ -154,24 +185,23 @@ def contact_damping(points, velocities, weights, pairs, law):
 
 
 @njit(cache=True)
-def _pair_hessians(points, weights, pairs, k, r, project):
-    """3x3 Hessian with respect to p_a - p_b of every pair (zero if apart)."""
+def _pair_hessians(points, weights, pairs, k, r, smooth, project):
+    """3x3 Hessian with respect to p_a - p_b of every pair (zero if apart):
+    ww [f_uu (2 delta/R)(2 delta/R)^T + f_u 2/R I], R = (2r)^2."""
     out = np.zeros((pairs.shape[0], 3, 3))
+    reach2 = 4.0 * r * r
     for m in range(pairs.shape[0]):
         a, b = pairs[m, 0], pairs[m, 1]
         delta = points[a] - points[b]
         d2 = delta @ delta
-        if d2 >= 4.0 * r * r:
+        if d2 >= reach2:
             continue
-        d = np.sqrt(d2)
-        x = d / (2.0 * r)
         ww = k * weights[a] * weights[b]
-        f1 = ww * (-2.0 / x ** 3 + 2.0 * x) / (2.0 * r)            # dE/dd (< 0: repulsive)
-        f2 = ww * (6.0 / x ** 4 + 2.0) / (4.0 * r * r)             # d2E/dd2 (> 0)
-        n = delta / d
-        nn = np.outer(n, n)
-        lateral = f1 / d if not project else 0.0                    # negative: dropped if projected
-        out[m] = f2 * nn + lateral * (np.eye(3) - nn)
+        _, f_u, f_uu = _law(d2 / reach2, smooth)
+        g = 2.0 * delta / reach2
+        out[m] = ww * f_uu * np.outer(g, g)
+        if not project:                      # f_u < 0 (repulsive): dropped when projected
+            out[m] += ww * f_u * 2.0 / reach2 * np.eye(3)
     return out
 
 
@@ -183,7 +213,7 @@ def contact_hessian(points, weights, pairs, law, project=False):
         return sparse.csr_matrix((3 * n, 3 * n))
     pairs = np.asarray(pairs, np.int64)
     H = _pair_hessians(points, weights, pairs, float(law.stiffness), float(law.radius),
-                       bool(project))
+                       law.smooth, bool(project))
     a, b = pairs[:, 0], pairs[:, 1]
     k3 = np.arange(3)
     rows, cols, vals = [], [], []

@@ -95,9 +95,7 @@ def _bar(progress, total):
 
 
 def _done(model, y, iterations, history, E, report):
-    out = Relaxed(y, iterations, history[-1], E, "newton", history)
-    out.report = report
-    return out
+    return Relaxed(y, iterations, history[-1], E, "newton", history, report=report)
 
 
 def _descent(H, D, g, mu, mu_min, report):

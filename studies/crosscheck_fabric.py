@@ -1,0 +1,158 @@
+"""Cross-check of the fabric curl: the paper's own B-spline model against the beam path.
+
+For each swatch size (N_w, N_c) the B-spline model relaxes the prestretched
+swatch (:func:`knitfem.scenes.curl_bspline.bspline_curl`, FIRE, at most
+``--max-time`` seconds, single-threaded) and the shared curl analysis
+classifies it.  The beam column comes from the beam path: from
+``knitfem.scenes.curl`` when that module exists (the lead's ``knitfem curl``),
+else from ``--beam-json DIR`` (files ``beam_<nw>x<nc>*.json`` written by
+``knitfem curl --json``), else it stays empty with a note.  Also the run time
+against error on the first size: roll angles and residual against wall time.
+
+    OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python studies/crosscheck_fabric.py \\
+        --out studies/results/crosscheck_fabric [--sizes 10x35,25x35,55x35] [--max-time 1800]
+
+Writes ``crosscheck.md`` / ``crosscheck.csv`` (the table), ``bspline_<nw>x<nc>.json``
+(every B-spline key, history and trace), ``.vtu`` of the relaxed yarns,
+``trace_<nw>x<nc>.csv`` and ``time_vs_error_<nw>x<nc>.png``.
+"""
+import argparse
+import csv
+import glob
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from knitfem.scenes.curl_bspline import bspline_curl  # noqa: E402
+from knitfem.scenes.swatch_bspline import YarnConstants  # noqa: E402
+
+COLUMNS = ["model", "nw", "nc", "curl", "roll_left", "roll_right", "roll_top", "roll_bottom",
+           "curvature_x", "curvature_y", "height_over_width", "converged", "residual",
+           "max_penetration_over_d", "dofs", "elapsed_s", "note"]
+
+
+def beam_column(nw, nc, alpha, beam_json):
+    """The beam path's result at (nw, nc): list of dicts (GJ/EI small and default),
+    or a one-item list with only a note."""
+    try:
+        from knitfem.scenes import curl as beam_scene           # the lead's knitfem curl
+    except ImportError:
+        beam_scene = None
+    rows = []
+    if beam_scene is not None:
+        for gj in (1e-3, None):
+            try:
+                kwargs = {"alpha": alpha, "progress": False}
+                if gj is not None:
+                    kwargs["gj_over_ei"] = gj
+                result = beam_scene.curl(nw, nc, **kwargs)
+                result["note"] = f"knitfem.scenes.curl, GJ/EI = {gj or 'default'}"
+                rows.append(result)
+            except Exception as err:                            # report, do not hide
+                rows.append({"model": "beam", "nw": nw, "nc": nc,
+                             "note": f"knitfem.scenes.curl failed: {err}"[:200]})
+        return rows
+    if beam_json:
+        for path in sorted(glob.glob(str(Path(beam_json) / f"beam_{nw}x{nc}*.json"))):
+            result = json.loads(Path(path).read_text())
+            result["note"] = f"from {Path(path).name}"
+            rows.append(result)
+        if rows:
+            return rows
+    return [{"model": "beam", "nw": nw, "nc": nc,
+             "note": "beam path not available here (knitfem.scenes.curl not importable, no "
+                     "--beam-json): to be filled by `knitfem curl`"}]
+
+
+def flat(result):
+    """One table row from a result dict (issue 9's keys)."""
+    rolls = result.get("roll_deg") or {}
+    row = {k: result.get(k) for k in COLUMNS}
+    for side in ("left", "right", "top", "bottom"):
+        row[f"roll_{side}"] = rolls.get(side)
+    if result.get("model") == "bspline" and not row.get("note"):
+        row["note"] = result.get("message", "")[:120]
+    return row
+
+
+def fmt(v):
+    if isinstance(v, float):
+        return f"{v:.3g}"
+    return "" if v is None else str(v)
+
+
+def write_trace(result, out, tag):
+    trace = result.get("trace")
+    if not trace:
+        return
+    with open(out / f"trace_{tag}.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["t", "step", "residual", "energy", "ke"])
+        w.writeheader()
+        w.writerows(trace["rows"])
+    shapes = trace["shapes"]
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 7), sharex=True)
+    for side in ("left", "right", "top", "bottom"):
+        pts = [(s["t"], s[f"roll_{side}"]) for s in shapes if f"roll_{side}" in s]
+        if pts:
+            ax1.plot(*zip(*pts), label=side)
+    ax1.set_ylabel("edge roll (deg, + to the front)")
+    ax1.legend()
+    ax1.set_title(f"B-spline {tag}: run time against error ({result['method']})")
+    rows = trace["rows"]
+    ax2.semilogy([r["t"] for r in rows], [r["residual"] for r in rows], lw=0.6)
+    ax2.set_xlabel("wall time (s)")
+    ax2.set_ylabel("relative residual")
+    fig.tight_layout()
+    fig.savefig(out / f"time_vs_error_{tag}.png", dpi=120)
+    plt.close(fig)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--out", default="studies/results/crosscheck_fabric")
+    p.add_argument("--sizes", default="10x35,25x35,55x35")
+    p.add_argument("--alpha", type=float, default=0.2)
+    p.add_argument("--max-time", type=float, default=1800.0)
+    p.add_argument("--method", default="fire", choices=("fire", "dynamic"))
+    p.add_argument("--k-contact", type=float, default=None,
+                   help="contact stiffness g/s^2 (default: YarnConstants')")
+    p.add_argument("--beam-json", default=None)
+    p.add_argument("--tag", default="", help="suffix of the output names")
+    args = p.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    constants = YarnConstants() if args.k_contact is None else YarnConstants(
+        k_contact=args.k_contact)
+    rows = []
+    for size in args.sizes.split(","):
+        nw, nc = (int(v) for v in size.lower().split("x"))
+        tag = f"{nw}x{nc}{args.tag}"
+        result = bspline_curl(nw, nc, alpha=args.alpha, method=args.method,
+                              max_time=args.max_time, constants=constants, out=out,
+                              progress=False, trace=True)
+        (out / f"bspline_{tag}.json").write_text(json.dumps(result, indent=1))
+        write_trace(result, out, tag)
+        rows.append(flat(result))
+        rows.extend(flat(r) for r in beam_column(nw, nc, args.alpha, args.beam_json))
+        print(json.dumps({k: result[k] for k in ("nw", "nc", "curl", "roll_deg", "converged",
+                                                 "residual", "elapsed_s")}), flush=True)
+        write_table(rows, out, args.tag)
+    return rows
+
+
+def write_table(rows, out, tag=""):
+    with open(out / f"crosscheck{tag}.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join(fmt(r.get(k)) for k in COLUMNS) + " |" for r in rows]
+    (out / f"crosscheck{tag}.md").write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
