@@ -122,8 +122,7 @@ class Oscillation:
     checks the mechanical energy E + KE has fallen by less than ``tol`` of
     itself while the kinetic energy kept rising and falling (at least two
     valleys): the damping is not getting anywhere and the state is not at
-    rest.  :meth:`check` says when to end it (zero the velocities: a
-    kinetic-damping reset); ``resets`` counts them."""
+    rest.  :meth:`check` says when to end it; ``resets`` counts them."""
 
     def __init__(self, patience=50, tol=1e-4):
         self.patience, self.tol = patience, tol
@@ -156,7 +155,8 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
     contact damping comes with the model's contact law.  A standing
     oscillation (:class:`Oscillation`: ``patience`` checks in which the
     mechanical energy hardly fell while the kinetic energy oscillated) is
-    ended by zeroing the velocities.  After ``max_time`` seconds or
+    ended by kinetic damping (velocities zeroed at every peak of the kinetic
+    energy) for the next ``patience`` checks.  After ``max_time`` seconds or
     ``max_steps`` the relaxation gives up (:class:`RelaxationError`, last
     state kept).  monitor(step, y, residual, E, ke) is called at every check."""
     for name, value in (("rtol", rtol), ("ke_rtol", ke_rtol), ("damping", damping)):
@@ -173,6 +173,7 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
     ke = ke_last = 0.0
     history = []
     watch = Oscillation(patience)
+    kinetic_until = 0                           # kinetic damping on until this step
     bar = None
     if progress:
         from tqdm import tqdm
@@ -210,9 +211,8 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
                 # at rest, not passing through equilibrium (ke: of the step that led here)
                 if converged(g, ref, rtol, model) and ke <= ke_rtol * max(abs(E), ref * length):
                     return Relaxed(y, step, r, E, "dynamic", history, dt, v, watch.resets)
-                if watch.check(E, ke):
-                    v[:] = 0.0                  # end the standing oscillation
-                    ke = ke_last = 0.0
+                if watch.check(E, ke):          # end the standing oscillation
+                    kinetic_until = step + patience * check_every
                 if max_time is not None and time.perf_counter() - start > max_time:
                     raise RelaxationError(f"dynamic relaxation reached its time limit "
                                           f"{max_time:.0f} s at step {step}, relative residual "
@@ -222,7 +222,7 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
                 f += f_contact
             v += dt * f / m
             ke = 0.5 * np.sum(m * v * v)
-            if kinetic and ke < ke_last:            # past a peak of kinetic energy
+            if (kinetic or step < kinetic_until) and ke < ke_last:    # past a kinetic peak
                 v[:] = 0.0
                 ke = 0.0
             ke_last = ke

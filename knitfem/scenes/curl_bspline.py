@@ -28,6 +28,7 @@ import numpy as np
 from ..bspline import RelaxationError, relax_dynamic, relax_newton, stability
 from ..bspline.contact import overlap
 from ..bspline.fire import relax_fire
+from ..bspline.relax import converged
 from .swatch_bspline import YarnConstants, bspline_swatch, prestretch
 
 METHODS = ("fire", "dynamic")
@@ -104,7 +105,9 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, newton=T
             info["message"] = f"Newton finish not kept: {err}"
     E, g, ref = model.reduced_energy(y)
     info["residual"] = float(np.linalg.norm(g) / ref)
-    info["converged"] = info["converged"] and info["residual"] <= rtol
+    info["converged"] = info["converged"] and converged(g, ref, rtol, model)
+    # below the round-off floor: the relative residual cannot say more
+    info["roundoff_limited"] = bool(np.linalg.norm(g) <= model.roundoff)
     return y, info
 
 
@@ -123,6 +126,8 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     alpha = float(alpha)
     if not (np.isfinite(alpha) and 0.0 <= alpha < 1.0):
         raise ValueError(f"alpha must be in [0, 1), got {alpha!r}")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     constants = YarnConstants() if constants is None else constants
     t0 = time.perf_counter()
     bs = bspline_swatch(nw, nc, w=w, c=c, radius=radius, segments_per_loop=segments_per_loop,
@@ -163,7 +168,7 @@ def summarise(bs, y, info):
         "max_penetration_over_d": overlap(pts, model.contact_pairs(q), model.contact),
         "dofs": int(y.size), "iterations": int(info["iterations"]),
         "method": info["method"], "message": info["message"],
-        "oscillations": info["oscillations"],
+        "oscillations": info["oscillations"], "roundoff_limited": info["roundoff_limited"],
         "directions_as_paper": bool(shape.directions_as_paper),
         "loop_aspect": float(shape.loop_aspect),
         "energy": {k: float(v) for k, v in model.energy_parts(q).items()},
