@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from knitfem.bspline import BSplineModel, ContactLaw, Yarn, relax_newton, relax_static
+from knitfem.bspline import BSplineModel, ContactLaw, Yarn, relax_newton
 from knitfem.bspline.energy import curvature
 
 

@@ -1,5 +1,6 @@
 """Independent yarn-level model (Kaldor et al. 2008): B-spline centrelines,
-stretching, bending and contact energies, dynamic relaxation.  Shares no
+stretching, bending and contact energies with exact gradients and Hessians,
+dynamic relaxation, FIRE, Newton, stability.  Shares no
 mechanics code with the beam model: only geometry input and output formats."""
 from . import curve, stability
 from .contact import ContactLaw
@@ -8,5 +9,5 @@ from .yarn import Yarn
 from .newton import relax_newton
 from .relax import RelaxationError, relax_dynamic, relax_static
 
-__all__ = ["curve", "stability", "BSplineModel", "ContactLaw", "RelaxationError", "Yarn", "relax_dynamic",
-           "relax_newton", "relax_static"]
+__all__ = ["curve", "stability", "BSplineModel", "ContactLaw", "RelaxationError", "Yarn",
+           "relax_dynamic", "relax_newton", "relax_static"]

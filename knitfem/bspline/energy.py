@@ -85,27 +85,23 @@ def _local(q, seg, s, g, dB, ddB, B3):
     return a, b, d
 
 
+@njit(cache=True, inline="always")
+def _combine(c, q, i0, i1, i2, i3):
+    """sum_j c_j q_{i_j} as a 3-tuple (no allocation)."""
+    return (c[0] * q[i0, 0] + c[1] * q[i1, 0] + c[2] * q[i2, 0] + c[3] * q[i3, 0],
+            c[0] * q[i0, 1] + c[1] * q[i1, 1] + c[2] * q[i2, 1] + c[3] * q[i3, 1],
+            c[0] * q[i0, 2] + c[1] * q[i1, 2] + c[2] * q[i2, 2] + c[3] * q[i3, 2])
+
+
 @njit(cache=True)
 def _elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, g_stretch, g_bend,
              e_stretch, e_bend):
     for s in range(seg.shape[0]):
         i0, i1, i2, i3 = seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3]
-        d = (B3[0] * q[i0, 0] + B3[1] * q[i1, 0] + B3[2] * q[i2, 0] + B3[3] * q[i3, 0],
-             B3[0] * q[i0, 1] + B3[1] * q[i1, 1] + B3[2] * q[i2, 1] + B3[3] * q[i3, 1],
-             B3[0] * q[i0, 2] + B3[1] * q[i1, 2] + B3[2] * q[i2, 2] + B3[3] * q[i3, 2])
+        d = _combine(B3, q, i0, i1, i2, i3)
         for g in range(w.shape[0]):
-            a = (dB[g, 0] * q[i0, 0] + dB[g, 1] * q[i1, 0] + dB[g, 2] * q[i2, 0]
-                 + dB[g, 3] * q[i3, 0],
-                 dB[g, 0] * q[i0, 1] + dB[g, 1] * q[i1, 1] + dB[g, 2] * q[i2, 1]
-                 + dB[g, 3] * q[i3, 1],
-                 dB[g, 0] * q[i0, 2] + dB[g, 1] * q[i1, 2] + dB[g, 2] * q[i2, 2]
-                 + dB[g, 3] * q[i3, 2])
-            b = (ddB[g, 0] * q[i0, 0] + ddB[g, 1] * q[i1, 0] + ddB[g, 2] * q[i2, 0]
-                 + ddB[g, 3] * q[i3, 0],
-                 ddB[g, 0] * q[i0, 1] + ddB[g, 1] * q[i1, 1] + ddB[g, 2] * q[i2, 1]
-                 + ddB[g, 3] * q[i3, 1],
-                 ddB[g, 0] * q[i0, 2] + ddB[g, 1] * q[i1, 2] + ddB[g, 2] * q[i2, 2]
-                 + ddB[g, 3] * q[i3, 2])
+            a = _combine(dB[g], q, i0, i1, i2, i3)
+            b = _combine(ddB[g], q, i0, i1, i2, i3)
             e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], EA[s], 0.0, 0.0, 0.0,
                                                    False, w[g])
             e_stretch[s] += e

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from .relax import Relaxed, RelaxationError, converged
+from .relax import Relaxed, RelaxationError, converged, progress_bar
 
 
 def gershgorin_masses(model, y, floor=1e-12):
@@ -49,7 +49,7 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
     n_pos = 0
     cuts = 0
     history = []
-    bar = _bar(progress, max_steps)
+    bar = progress_bar(progress, max_steps, "FIRE")
     E, g, ref = model.reduced_energy(y)
     try:
         for step in range(1, max_steps + 1):
@@ -104,10 +104,3 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
             bar.close()
     raise RelaxationError(f"FIRE did not reach relative residual {rtol:.1e} in {max_steps} "
                           f"steps (last {history[-1]:.2e})", y, history)
-
-
-def _bar(progress, total):
-    if not progress:
-        return None
-    from tqdm import tqdm
-    return tqdm(total=total, desc="FIRE", unit="step", leave=False)

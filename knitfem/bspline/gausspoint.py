@@ -194,7 +194,7 @@ def gradient(a, b, d, l, EA, EI, k0, t0, curved, w):
     if curved and F > 1e-14 * a2 * a2:
         T = _dot(c, d)
         f = T / F - t0
-        # tau_x = T_x / F - T F_x / F^2 with T_a = b x d, T_b = d x a, T_d = c, F_x = 2 (F_a, F_b, 0)
+        # tau_x = T_x / F - T F_x / F^2, T_a = b x d, T_b = d x a, T_d = c, F_x = 2 (F_a, F_b, 0)
         k = 2.0 * kb * f * na
         e += kb * f * f * na
         e_a = _axpy(k / F, _x(b, d), _axpy(-2.0 * k * T / (F * F), F_a,

@@ -18,7 +18,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import linalg as splinalg
 
-from .relax import Relaxed, RelaxationError, converged
+from .relax import Relaxed, RelaxationError, converged, progress_bar
 
 
 @dataclass
@@ -48,7 +48,7 @@ def relax_newton(model, y0, *, rtol=1e-8, atol=0.0, max_iter=100, max_move=None,
     history = [float(np.linalg.norm(g) / ref)]
     mu = mu0
     report = NewtonReport()
-    bar = _bar(progress, max_iter)
+    bar = progress_bar(progress, max_iter, "Newton")
     try:
         for it in range(1, max_iter + 1):
             if converged(g, ref, rtol, model, atol):
@@ -86,12 +86,6 @@ def _largest_move(Z, step):
     move = (Z @ step).reshape(-1, 3)
     return max(float(np.sqrt((move**2).sum(axis=1)).max()), 1e-300)
 
-
-def _bar(progress, total):
-    if not progress:
-        return None
-    from tqdm import tqdm
-    return tqdm(total=total, desc="Newton", unit="step", leave=False)
 
 
 def _done(model, y, iterations, history, E, report):

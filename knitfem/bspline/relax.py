@@ -53,6 +53,14 @@ class Relaxed:
     report: object = field(default=None, repr=False)
 
 
+def progress_bar(progress, total, desc):
+    """A tqdm bar over ``total`` steps, or None when ``progress`` is off."""
+    if not progress:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, desc=desc, unit="step", leave=False)
+
+
 def _residual(model, y):
     E, g, ref = model.reduced_energy(y)
     return E, g, float(np.linalg.norm(g) / max(ref, 1e-300))
@@ -174,10 +182,7 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
     history = []
     watch = Oscillation(patience)
     kinetic_until = 0                           # kinetic damping on until this step
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=max_steps, desc="dynamic relaxation", unit="step", leave=False)
+    bar = progress_bar(progress, max_steps, "dynamic relaxation")
     # the stiffness grows as the yarn bends, so the step estimated at the start can
     # turn unstable later: damped dynamics never gains energy, so a state whose
     # energy has doubled since the last checkpoint sends us back there with half the step

@@ -27,10 +27,11 @@ class Yarn:
     """One yarn: control points (N+3, 3) (open) or (N, 3) (closed), rest length
     per segment (N,), stiffnesses, radius and line density.
 
-    curved: the yarn's natural curvature is that of its initial curve (else it
-    is naturally straight); shaped: its natural parametric speed too (every
-    point at its initial length, not only every segment); self_contact: whether its own samples repel each
-    other (the paper leaves it out for the bind-off)."""
+    curved: the yarn's natural curvature and torsion are those of its initial
+    curve (else it is naturally straight); shaped: its natural parametric
+    speed too (every point at its initial length, not only every segment);
+    self_contact: whether its own samples repel each other (the paper leaves
+    it out for the bind-off)."""
     control: np.ndarray
     rest: np.ndarray
     EA: float
