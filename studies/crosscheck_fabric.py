@@ -14,7 +14,8 @@ against error on the first size: roll angles and residual against wall time.
 
 Writes ``crosscheck.md`` / ``crosscheck.csv`` (the table), ``bspline_<nw>x<nc>.json``
 (every B-spline key, history and trace), ``.vtu`` of the relaxed yarns,
-``trace_<nw>x<nc>.csv`` and ``time_vs_error_<nw>x<nc>.png``.
+``trace_<nw>x<nc>.csv``, ``time_vs_error_<nw>x<nc>.png`` and ``shape_<nw>x<nc>.png``
+(top and side views of the relaxed yarns).
 """
 import argparse
 import csv
@@ -111,6 +112,27 @@ def write_trace(result, out, tag):
     plt.close(fig)
 
 
+def plot_shape(vtu, png, title):
+    """Top and side views of the relaxed yarns (knit yarn blue, bind-off red)."""
+    import meshio
+    import numpy as np
+    mesh = meshio.read(vtu)
+    pts, yarn = mesh.points, mesh.point_data["yarn"]
+    fig = plt.figure(figsize=(10, 5))
+    for i, (elev, azim) in enumerate(((90, -90), (0, -90))):
+        ax = fig.add_subplot(1, 2, i + 1, projection="3d")
+        for k in np.unique(yarn):
+            ax.plot(*pts[yarn == k].T, lw=0.5, color="C0" if k == 0 else "C3")
+        centre, half = pts.mean(axis=0), np.ptp(pts, axis=0).max() / 2
+        for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+            set_lim(c - half, c + half)
+        ax.view_init(elev, azim)
+        ax.set_title(f"{title} ({'top' if i == 0 else 'side'})")
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--out", default="studies/results/crosscheck_fabric")
@@ -136,6 +158,8 @@ def main(argv=None):
                               progress=False, trace=True)
         (out / f"bspline_{tag}.json").write_text(json.dumps(result, indent=1))
         write_trace(result, out, tag)
+        plot_shape(out / f"bspline_{nw}x{nc}.vtu", out / f"shape_{tag}.png",
+                   f"B-spline {nw} x {nc}: {result['curl']}")
         rows.append(flat(result))
         rows.extend(flat(r) for r in beam_column(nw, nc, args.alpha, args.beam_json))
         print(json.dumps({k: result[k] for k in ("nw", "nc", "curl", "roll_deg", "converged",

@@ -156,18 +156,32 @@ def contact_energy(points, weights, pairs, law):
 
 @njit(cache=True)
 def _pair_damping(points, velocities, weights, pairs, r, cn, ct, out):
+    reach2 = 4.0 * r * r
     for m in range(pairs.shape[0]):
         a, b = pairs[m, 0], pairs[m, 1]
-        delta = points[a] - points[b]
-        d2 = delta @ delta
-        if d2 >= 4.0 * r * r:
+        dx = points[a, 0] - points[b, 0]
+        dy = points[a, 1] - points[b, 1]
+        dz = points[a, 2] - points[b, 2]
+        d2 = dx * dx + dy * dy + dz * dz
+        if d2 >= reach2:
             continue
-        n = delta / np.sqrt(d2)
-        dv = velocities[a] - velocities[b]
-        dv_n = (dv @ n) * n
-        f = -weights[a] * weights[b] * (cn * dv_n + ct * (dv - dv_n))        # on sample a
-        out[a] += f
-        out[b] -= f
+        d = np.sqrt(d2)
+        nx, ny, nz = dx / d, dy / d, dz / d
+        vx = velocities[a, 0] - velocities[b, 0]
+        vy = velocities[a, 1] - velocities[b, 1]
+        vz = velocities[a, 2] - velocities[b, 2]
+        vn = vx * nx + vy * ny + vz * nz
+        ww = -weights[a] * weights[b]
+        # on sample a: -ww (cn v_n n + ct (v - v_n n)); equal and opposite on b
+        fx = ww * (cn * vn * nx + ct * (vx - vn * nx))
+        fy = ww * (cn * vn * ny + ct * (vy - vn * ny))
+        fz = ww * (cn * vn * nz + ct * (vz - vn * nz))
+        out[a, 0] += fx
+        out[a, 1] += fy
+        out[a, 2] += fz
+        out[b, 0] -= fx
+        out[b, 1] -= fy
+        out[b, 2] -= fz
 
 
 def contact_damping(points, velocities, weights, pairs, law):

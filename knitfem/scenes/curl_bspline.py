@@ -180,8 +180,9 @@ def summarise(bs, y, info):
 
 
 def write_curl(bs, y, summary, out):
-    """Write the relaxed yarns (``bspline_<nw>x<nc>.vtu``) and the summary
-    (``bspline_<nw>x<nc>.json``) to folder ``out``."""
+    """Write the relaxed yarns (``bspline_<nw>x<nc>.vtu``), their control
+    points (``.npy``, to resume or polish) and the summary (``.json``) to
+    folder ``out``."""
     import json
     from pathlib import Path
     from ..io.vtk import curve_mesh, write_mesh
@@ -195,4 +196,5 @@ def write_curl(bs, y, summary, out):
                                            enumerate(curves)]})
     name = f"bspline_{summary['nw']}x{summary['nc']}"
     write_mesh(out / f"{name}.vtu", mesh)
+    np.save(out / f"{name}_control.npy", model.control_points(y))
     (out / f"{name}.json").write_text(json.dumps(summary, indent=1))
