@@ -155,10 +155,10 @@ def main(argv=None):
         tag = f"{nw}x{nc}{args.tag}"
         result = bspline_curl(nw, nc, alpha=args.alpha, method=args.method,
                               max_time=args.max_time, constants=constants, out=out,
-                              progress=False, trace=True)
+                              name=f"bspline_{tag}", progress=False, trace=True)
         (out / f"bspline_{tag}.json").write_text(json.dumps(result, indent=1))
         write_trace(result, out, tag)
-        plot_shape(out / f"bspline_{nw}x{nc}.vtu", out / f"shape_{tag}.png",
+        plot_shape(out / f"bspline_{tag}.vtu", out / f"shape_{tag}.png",
                    f"B-spline {nw} x {nc}: {result['curl']}")
         rows.append(flat(result))
         rows.extend(flat(r) for r in beam_column(nw, nc, args.alpha, args.beam_json))

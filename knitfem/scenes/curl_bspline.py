@@ -113,13 +113,14 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, newton=T
 
 def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_loop=16,
                  method="fire", rtol=1e-6, newton=True, max_time=1800.0, constants=None,
-                 bindoff_stiffness=1.0, out=None, progress=True, trace=False):
+                 bindoff_stiffness=1.0, out=None, name=None, progress=True, trace=False):
     """Curl of an nw x nc plain-knit swatch in the B-spline model: issue 9's
     JSON keys (dict) plus "constants", "energy", "method", "message" and the
     relaxation history.  Fields the model cannot measure are None (here every
     key is measured).  max_time: seconds of relaxation before the last state
     is reported as not converged.  out: a folder for the relaxed centrelines
-    (.vtu) and the summary (JSON).  trace: also return the relaxation's
+    (.vtu), control points (.npy) and the summary (JSON), file names
+    ``name`` (default ``bspline_<nw>x<nc>``).  trace: also return the relaxation's
     :class:`Trace` rows and shapes under "trace"."""
     nw = _check_count("nw", nw, 3)
     nc = _check_count("nc", nc, 4)
@@ -141,7 +142,7 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     if trace:
         summary["trace"] = {"rows": monitor.rows, "shapes": monitor.shapes}
     if out is not None:
-        write_curl(bs, y, summary, out)
+        write_curl(bs, y, summary, out, name)
     return summary
 
 
@@ -179,10 +180,10 @@ def summarise(bs, y, info):
     }
 
 
-def write_curl(bs, y, summary, out):
-    """Write the relaxed yarns (``bspline_<nw>x<nc>.vtu``), their control
-    points (``.npy``, to resume or polish) and the summary (``.json``) to
-    folder ``out``."""
+def write_curl(bs, y, summary, out, name=None):
+    """Write the relaxed yarns (``<name>.vtu``), their control points
+    (``<name>_control.npy``, to resume or polish) and the summary
+    (``<name>.json``) to folder ``out``; name: default ``bspline_<nw>x<nc>``."""
     import json
     from pathlib import Path
     from ..io.vtk import curve_mesh, write_mesh
@@ -194,7 +195,7 @@ def write_curl(bs, y, summary, out):
                       point_data={"curvature": [k for _, _, k in curves],
                                   "yarn": [np.full(len(r), i) for i, (r, _, _) in
                                            enumerate(curves)]})
-    name = f"bspline_{summary['nw']}x{summary['nc']}"
+    name = name or f"bspline_{summary['nw']}x{summary['nc']}"
     write_mesh(out / f"{name}.vtu", mesh)
     np.save(out / f"{name}_control.npy", model.control_points(y))
     (out / f"{name}.json").write_text(json.dumps(summary, indent=1))
