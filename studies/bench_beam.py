@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from knitfem import Section
+from knitfem.io import save_figure, write_json, write_text
 from knitfem.verify import cases, closed_form
 
 
@@ -39,12 +40,12 @@ def case_half_circle(n, section=None):
     return float(np.linalg.norm(tip - closed_form.end_moment_tip(np.pi))), steps, model
 
 
-def case_column(n, section=None):
+def case_column(n):
     crit = cases.critical_load(cases.column(n, "clamped"), (0.8 * 4 * np.pi**2, 1.2 * 4 * np.pi**2))
     return abs(crit.load / (4 * np.pi**2) - 1), None, None
 
 
-def column_prebuckling(n, section=None):
+def column_prebuckling(n):
     """Newton along the column's fundamental path up to 0.9 of the Euler load."""
     model = cases.column(n, "clamped")
     return None, model.solve(loads=np.linspace(0.09, 0.9, 10) * 4 * np.pi**2), model
@@ -144,12 +145,13 @@ def newton_iterations():
     yarn = Section.circle(3.0 / 105.0, E=1.0)       # the S-rod's slenderness, L = 1
     rows = []
     for label, section in (("stiff (EA L^2/EI = 1e8)", None), ("yarn-like (L/d = 35)", yarn)):
-        for name, fn in (("a_half_circle", case_half_circle),
-                         ("b_clamped_column (to 0.9 P_E)", column_prebuckling),
-                         ("c_elastica_PL2_EI_10", case_elastica)):
+        runs = [("a_half_circle", lambda: case_half_circle(64, section)),
+                ("b_clamped_column (to 0.9 P_E)", lambda: column_prebuckling(64)),
+                ("c_elastica_PL2_EI_10", lambda: case_elastica(64, section))]
+        for name, run in runs:
             if section is not None and name.startswith("b"):
                 continue                                  # the column scene is stiff only
-            _, steps, model = fn(64, section)
+            _, steps, model = run()
             rows.append({"section": label, "case": name, **newton_row(steps, model)})
             print(f"  {label:24s} {name:22s} {summary(rows[-1])}")
     return rows
@@ -249,8 +251,19 @@ def plot(conv, asm, path):
     axes[2].set_title("assembly time (2 cores)")
     axes[2].legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path, dpi=120)
+
+
+def assembly_only(out, repeat):
+    """Time the assembly alone (before/after a kernel change); the other tables
+    come from the last full run."""
+    case_elastica(8)                                   # warm this process (numba)
+    print("assembly")
+    rows = assembly([100, 1000, 10000, 100000], repeat=repeat)
+    if out is not None and (out / "bench_beam.json").exists():
+        result = json.loads((out / "bench_beam.json").read_text())
+        result["assembly"] = rows
+        write(out, result)
 
 
 def newton_only(out):
@@ -270,8 +283,8 @@ def newton_only(out):
 def write(out, result):
     md = markdown(result["convergence"], result["assembly"], result["newton"],
                   result["stiffness_sweep"], result["startup"])
-    (out / "bench_beam.json").write_text(json.dumps(result, indent=2))
-    (out / "bench_beam.md").write_text(md + "\n")
+    write_json(out / "bench_beam.json", result)
+    write_text(out / "bench_beam.md", md + "\n")
     print(md)
 
 
@@ -279,14 +292,18 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--out", default="studies/results/bench_beam")
     parser.add_argument("--repeat", type=int, default=5)
-    parser.add_argument("--only", choices=("all", "newton"), default="all",
-                        help="'newton': only the Newton tables (other tables kept from the "
-                             "previous run's bench_beam.json)")
+    parser.add_argument("--only", choices=("all", "newton", "assembly"), default="all",
+                        help="'newton' / 'assembly': only those tables (other tables kept "
+                             "from the previous run's bench_beam.json)")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="print the tables, write nothing (e.g. --only assembly to compare)")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.only == "newton":
         return newton_only(out)
+    if args.only == "assembly":
+        return assembly_only(None if args.dry_run else out, args.repeat * 2 + 1)
     compile_s = cold_start()
     case_elastica(8)                                   # warm this process
     print("error vs elements vs wall time")

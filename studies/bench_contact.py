@@ -12,7 +12,6 @@
     python studies/bench_contact.py --out studies/results/bench_contact
 """
 import argparse
-import json
 import time
 from pathlib import Path
 
@@ -21,6 +20,7 @@ import numpy as np
 from knitfem import BeamModel, Rod, Section
 from knitfem.contact import PenaltyLaw, SegmentContact
 from knitfem.geometry import plain_knit_swatch
+from knitfem.io import write_json
 from knitfem.verify.cases import yarn_on_yarn
 
 R = 0.4
@@ -172,9 +172,9 @@ def main():
         print(f"  factor {factor:g}: gap {gap.mean():+.3e} d (closed form {exact:+.3e}, spread "
               f"{np.ptp(gap):.1e}), penetration {max(0.0, -gap.min()):.2e} d, iterations "
               f"median {np.median(its):.0f} max {max(its)}")
-    (out / "bench_contact.json").write_text(json.dumps(
-        {"timing": rows, "two_ply": ply, "crossed": cross, "parallel_line_load": line,
-         "two_ply_last_step_history": history}, indent=2))
+    write_json(out / "bench_contact.json",
+               {"timing": rows, "two_ply": ply, "crossed": cross, "parallel_line_load": line,
+                "two_ply_last_step_history": history})
 
 
 if __name__ == "__main__":

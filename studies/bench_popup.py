@@ -11,12 +11,12 @@ interleaved so that a change in the machine's load hits both alike.  Run it
 without OMP_NUM_THREADS / OPENBLAS_NUM_THREADS set, or "default" is pinned too.
 """
 import argparse
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
+from knitfem.io import write_json
 from knitfem.scenes.popup_sweep import heat_map
 from knitfem.scenes.srod import SRod, popup
 
@@ -62,8 +62,7 @@ def main():
             "errors": hm.errors}
     print(f"heat map {len(w)} x {len(c)}: {wall:.1f} s wall on all cores "
           f"(solver time summed over columns {hm.elapsed.sum():.1f} s)")
-    (out / "bench_popup.json").write_text(json.dumps({"sweep": sweep, "heat_map": heat},
-                                                     indent=2))
+    write_json(out / "bench_popup.json", {"sweep": sweep, "heat_map": heat})
 
 
 if __name__ == "__main__":

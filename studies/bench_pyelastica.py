@@ -36,7 +36,6 @@ Writes ``bench_pyelastica.json`` (all numbers), ``bench_pyelastica.png``
 that is also printed).
 """
 import argparse
-import json
 import math
 import platform
 import sys
@@ -462,8 +461,8 @@ def plot(path, scene, x_kf, x_pe, x_fine=None, n_fine=None):
     fig.suptitle(f"S-rod at c/L = {scene.c_over_L}, w/L = {scene.w / L:.3f}: "
                  "popped equilibrium")
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    from knitfem.io import save_figure
+    save_figure(fig, path)
 
 
 def table(out):
@@ -608,11 +607,12 @@ def main(argv=None):
                                     * cmp_["pyelastica_mid_z_sign"]])
     out["centrelines_mm"] = {"knitfem": x_kf.tolist(), "pyelastica": x_pe.tolist()}
 
-    (out_dir / "bench_pyelastica.json").write_text(json.dumps(out, indent=1))
+    from knitfem.io import write_json, write_text
+    write_json(out_dir / "bench_pyelastica.json", out, indent=1)
     plot(out_dir / "bench_pyelastica.png", scene, x_kf_cmp, x_pe, x_fine,
          args.refine[-1] if args.refine else None)
     md = table(out)
-    (out_dir / "bench_pyelastica.md").write_text(md + "\n")
+    write_text(out_dir / "bench_pyelastica.md", md + "\n")
     print()
     print(md)
     return 0 if pe["status"] == "converged" else 1

@@ -9,7 +9,6 @@ one Newton solve of the beam at the same point.
     python studies/crosscheck_popup.py --out studies/results/crosscheck_popup
 """
 import argparse
-import json
 import time
 from pathlib import Path
 
@@ -20,6 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from knitfem.bspline import relax_dynamic, relax_static  # noqa: E402
+from knitfem.io import save_figure, write_json  # noqa: E402
 from knitfem.scenes.popup_output import signed_height  # noqa: E402
 from knitfem.scenes.srod import SRod, popup  # noqa: E402
 from knitfem.scenes.srod_bspline import bspline_popup, max_height, srod_yarn_model  # noqa: E402
@@ -149,10 +149,10 @@ def main():
     ax.set_title("S-rod pop-up: beam vs independent B-spline yarn model")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out / "crosscheck_popup.png", dpi=130)
-    (out / "crosscheck_popup.json").write_text(json.dumps(
-        {"table": rows, "critical_c_over_L": crit, "sweep_times": times, "point_c_0.6": point},
-        indent=2))
+    save_figure(fig, out / "crosscheck_popup.png")
+    write_json(out / "crosscheck_popup.json",
+               {"table": rows, "critical_c_over_L": crit, "sweep_times": times,
+                "point_c_0.6": point})
     print(f"wrote {out}")
 
 

@@ -17,13 +17,13 @@ about 5 c = 15 mm; the closed form gives 15.6 mm = 19.5 d).  A radius of
 sides side by side in one wale), where no clearance is left.
 """
 import argparse
-import json
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
 from knitfem.geometry import plain_knit_swatch
+from knitfem.io import write_json
 from knitfem.io.swatch import write_swatch
 from knitfem.scenes.knit import knit
 
@@ -83,7 +83,7 @@ def main():
               f"{med:.3f} s (min {min(times):.3f}, max {max(times):.3f}; target < 2 s)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "knit_swatch.json").write_text(json.dumps(summary, indent=2))
+    write_json(out / "knit_swatch.json", summary)
     print(f"wrote {out}")
 
 

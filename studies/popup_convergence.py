@@ -5,7 +5,6 @@ elements) and for GJ/EI in {0.5, 2/3, 1} (for an isotropic circle nu = 1, 0.5, 0
     python studies/popup_convergence.py --out studies/results/popup_convergence
 """
 import argparse
-import json
 from pathlib import Path
 
 import matplotlib
@@ -14,6 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from knitfem.io import save_figure, write_json  # noqa: E402
 from knitfem.scenes.popup_output import signed_height  # noqa: E402
 from knitfem.scenes.srod import SRod, popup  # noqa: E402
 
@@ -59,11 +59,11 @@ def main():
     ax[1].set_title("(d) pop-up for three torsional stiffnesses")
     ax[1].legend()
     fig.tight_layout()
-    fig.savefig(out / "popup_convergence.png", dpi=130)
-    (out / "popup_convergence.json").write_text(json.dumps({
+    save_figure(fig, out / "popup_convergence.png")
+    write_json(out / "popup_convergence.json", {
         "elements": sizes, "critical_c_over_L": crit, "successive_differences": diffs.tolist(),
         "difference_ratios": (diffs[:-1] / diffs[1:]).tolist(), "extrapolated": extrapolated,
-        "critical_by_gj_over_ei": torsion}, indent=2))
+        "critical_by_gj_over_ei": torsion})
     print(f"wrote {out}")
 
 

@@ -22,6 +22,7 @@ import numpy as np
 from ..solve.stepping import load_stepping
 from ..contact import DEFAULT_FACTOR, DEFAULT_REGULARISATION
 from .assembly import DOFS_PER_NODE, RodAssembly
+from .contact_options import ContactOptions
 from .rod import Rod
 from .yarn_contact import BeamContact, default_law
 from .rotation import (quat_conjugate, quat_multiply, rotate_spatially, rotation_from_vector,
@@ -77,6 +78,7 @@ class BeamModel:
         self._plane = None
         self._assembly = None
         self._contact = None
+        self._ties = []           # (node a, node b, stiffness or None)
         for r in rods:
             self.add_rod(r)
 
@@ -85,7 +87,7 @@ class BeamModel:
         """Add a :class:`Rod`; returns its index."""
         if not isinstance(rod, Rod):
             raise ValueError(f"add_rod expects a knitfem Rod, got {type(rod).__name__}")
-        if self._supports or self._nodal:
+        if self._supports or self._nodal or self._ties:
             raise ValueError("add all rods before supports and loads (node numbering)")
         self.rods.append(rod)
         self._assembly = None
@@ -201,22 +203,14 @@ class BeamModel:
         self._nodal.append((self.node(rod, at), np.r_[np.zeros(3), _vector("moment", M)]))
 
     def contact(self, law=None, *, factor=DEFAULT_FACTOR, regularisation=DEFAULT_REGULARISATION,
-                exclude=None, per_diameter=6, damping=0.0, duration=1.0):
-        """Switch on penalty contact among all rods (self-contact included).
-
-        law : a :class:`knitfem.contact.PenaltyLaw`, default k = factor EI/r^4
-        of the softest rod, g0 = regularisation (r_a + r_b).  exclude : arclength
-        below which elements of one rod are neighbours (default 4 r).
-        damping : normal damping c (line load per gap rate, force time/length^2)
-        acting during :meth:`solve`'s increments, the load path 0 -> 1 taking
-        the pseudo-time ``duration``.
-        """
-        for name, value, low in (("damping", damping, "[0"), ("duration", duration, "(0")):
-            if not (np.isfinite(value) and (value > 0 or (value == 0 and low == "[0"))):
-                raise ValueError(f"contact {name} must be finite and in {low}, inf), "
-                                 f"got {value!r}")
-        self._contact = (law, factor, regularisation, exclude, per_diameter, float(damping),
-                         float(duration))
+                exclude=None, per_diameter=6, damping=0.0, duration=1.0, friction=0.0,
+                slip=None):
+        """Switch on penalty contact among all rods (self-contact included); the
+        options are those of :class:`ContactOptions` (law, or factor and
+        regularisation; exclude; per_diameter; damping and duration; friction
+        and its stick slip)."""
+        self._contact = ContactOptions(law, factor, regularisation, exclude, per_diameter,
+                                       damping, duration, friction, slip)
         self._contact_model = None
 
     @property
@@ -225,22 +219,79 @@ class BeamModel:
         if self._contact is None:
             return None
         if getattr(self, "_contact_model", None) is None:
-            law, factor, regularisation, exclude, per_diameter, damping, _ = self._contact
-            law = default_law(self.rods, factor, regularisation) if law is None else law
-            self._contact_model = BeamContact(self.assembly, law, exclude, per_diameter, damping)
+            o = self._contact
+            law = default_law(self.rods, o.factor, o.regularisation) if o.law is None else o.law
+            self._contact_model = BeamContact(self.assembly, law, o.exclude, o.per_diameter,
+                                              o.damping)
+            self._contact_model.friction = o.friction
+            radius = min(r.section.radius for r in self.rods)
+            self._contact_model.slip = o.slip if o.slip is not None else 1e-3 * radius
         return self._contact_model
 
     @property
     def contact_duration(self):
         """Pseudo-time of the load path 0 -> 1 (for contact damping)."""
-        return self._contact[6] if self._contact is not None else 1.0
+        return self._contact.duration if self._contact is not None else 1.0
 
     def contact_report(self, state):
         """Active pairs, min gap, max penetration, total normal force at ``state``."""
         if self.contact_model is None:
             return None
-        self.contact_model.forces(state.x, tangent=False)
+        self.contact_model.forces(state.x, tangent=False, q=state.q)
         return self.contact_model.report
+
+    def tie(self, rod_a, at_a, rod_b, at_b, stiffness=None):
+        """Keep node ``at_a`` of rod ``rod_a`` and node ``at_b`` of rod ``rod_b`` at
+        their layout distance by a spring (a woven-in yarn tail; see
+        :mod:`knitfem.beam.tie`).  stiffness : force/length, default EA/r of the
+        softer rod (a piece of yarn one radius long).  Returns the tie's index."""
+        a, b = self.node(rod_a, at_a), self.node(rod_b, at_b)
+        if a == b:
+            raise ValueError("tie: the two nodes must differ")
+        if stiffness is not None:
+            stiffness = float(stiffness)
+            if not (np.isfinite(stiffness) and stiffness > 0):
+                raise ValueError(f"tie stiffness must be finite and in (0, inf), got {stiffness!r}")
+        self._ties.append((a, b, stiffness))
+        self._tie_model = None
+        return len(self._ties) - 1
+
+    @property
+    def tie_model(self):
+        """The :class:`knitfem.beam.tie.Ties` of the model (None without ties)."""
+        if not self._ties:
+            return None
+        if getattr(self, "_tie_model", None) is None:
+            from .tie import Ties
+            x = self.assembly.initial_positions()
+            a, b, k = (np.array(v) for v in zip(*self._ties))
+            rod_of_node = np.searchsorted(self.assembly.node_offset, np.arange(len(x)),
+                                          side="right") - 1
+            default = []
+            for i, j in zip(a, b):
+                rods = [self.rods[rod_of_node[i]], self.rods[rod_of_node[j]]]
+                radius = min(r.section.radius for r in rods)
+                EA = min(r.section.EA for r in rods)
+                default.append(EA / radius if np.isfinite(radius) else EA / min(
+                    r.h.min() for r in rods))
+            k = np.where([v is None for v in k], default, [v or 0.0 for v in k]).astype(float)
+            self._tie_model = Ties(a, b, np.linalg.norm(x[a] - x[b], axis=1), k)
+        return self._tie_model
+
+    def free_body(self, node=None):
+        """Remove the six rigid motions of a free-floating scene by holding one
+        node (position and frame; default the node nearest the centroid of the
+        layout): a statically determinate support, so its reactions vanish at
+        equilibrium (see :meth:`reactions`) and nothing else is constrained.
+        Rods without supports of their own are then held by ties or contact.
+        Returns the held node."""
+        x = self.assembly.initial_positions()
+        if node is None:
+            node = int(np.argmin(np.linalg.norm(x - x.mean(axis=0), axis=1)))
+        rod = int(np.searchsorted(self.assembly.node_offset, node, side="right") - 1)
+        self.clamp(rod, int(node - self.assembly.node_offset[rod]))
+        self._free_body = True
+        return int(node)
 
     def gravity(self, g):
         """Gravity acceleration (3,) acting on each rod's ``section.line_density``."""
@@ -289,11 +340,14 @@ class BeamModel:
                 raise ValueError(f"contradictory boundary conditions: a load acts on "
                                  f"supported dof(s) {hit} of node {node}; the support "
                                  "would absorb it")
+        if self._contact is not None or getattr(self, "_free_body", False):
+            return    # rods may be held by contact or ties; a singular tangent will tell
         for k, off in enumerate(self.assembly.node_offset[:-1]):
             end = self.assembly.node_offset[k + 1]
             if not fixed[off:end].any():
                 raise ValueError(f"rod {k} has no support and would move as a rigid body; "
-                                 "clamp, pin or prescribe at least one node")
+                                 "clamp, pin or prescribe at least one node (or call "
+                                 "free_body() for a free-floating scene)")
 
     def initial_state(self):
         return BeamState(self.assembly.initial_positions(), self.assembly.initial_rotations())
@@ -344,9 +398,15 @@ class BeamModel:
         ``free`` dofs if that mask is given) of a state, contact included; with
         ``direction`` also K @ direction (all dofs) as a fourth value."""
         out = self.assembly.forces(state.x, state.q, tangent, free, direction)
+        if self.tie_model is not None:
+            Et, ft, Kt = self.tie_model.forces(state.x, self.assembly.n_dofs, tangent, free)
+            out = (out[0] + Et, out[1] + ft, out[2] + Kt if tangent else None) + tuple(out[3:])
+            if direction is not None:
+                Ktd = self.tie_model.forces(state.x, self.assembly.n_dofs, True)[2]
+                out = out[:3] + (out[3] + Ktd @ direction,)
         if self.contact_model is None:
             return out
-        Ec, fc, Kc, Kvc = self.contact_model.forces(state.x, tangent, free, direction)
+        Ec, fc, Kc, Kvc = self.contact_model.forces(state.x, tangent, free, direction, state.q)
         energy, f, K = out[0] + Ec, out[1] + fc, (out[2] + Kc if tangent else None)
         if direction is None:
             return energy, f, K
@@ -359,8 +419,55 @@ class BeamModel:
         return np.where(self.fixed, r, 0.0)
 
     def length_scale(self):
-        """Characteristic length turning moments into forces in residual norms."""
-        return max(r.length for r in self.rods)
+        """Characteristic length of the scene (default: the longest rod; a scene
+        of many loops sets a loop's length with :meth:`set_length_scale`): the
+        unit of increments in convergence tests and of continuation steps, and
+        the bending length of the stiffness force scale."""
+        return self._length if getattr(self, "_length", None) else max(r.length for r in self.rods)
+
+    def set_length_scale(self, length):
+        """Use ``length`` (> 0) as the scene's characteristic length (see
+        :meth:`length_scale`), e.g. the yarn length of one knitted loop."""
+        v = float(length)
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"length scale must be finite and in (0, inf), got {length!r}")
+        self._length = v
+
+    def residual_weights(self):
+        """(n_dofs,) weights of residual entries: 1 on forces, 1/h on moments with
+        h the mean length of the node's elements, so that a moment imbalance
+        counts like the force pair that would carry it across an element (a rod
+        whose frames lag behind its positions is not taken for converged)."""
+        asm = self.assembly
+        a, b = asm.elements
+        count = np.bincount(np.concatenate([a, b]), minlength=asm.n_nodes)
+        h = (np.bincount(a, asm.h, asm.n_nodes) + np.bincount(b, asm.h, asm.n_nodes)) / \
+            np.maximum(count, 1)
+        h = np.where(count > 0, h, self.length_scale())
+        return np.column_stack([np.ones((asm.n_nodes, 3)),
+                                np.repeat(1.0 / h[:, None], 3, axis=1)]).ravel()
+
+    def force_scale(self, lam=1.0):
+        """A fixed force scale of the problem at load factor lam: the larger of
+        the loads (weighted norm) and the bending force sqrt(n_nodes) EI/l^2 of
+        the softest rod over the length scale l.  Relative residuals are taken
+        against it, never against the current internal forces (which vanish for
+        an unloaded free body and grow without bound at a diverged iterate)."""
+        EI = min(min(r.section.EI2, r.section.EI3) for r in self.rods)
+        stiffness = np.sqrt(self.assembly.n_nodes) * EI / self.length_scale() ** 2
+        loads = np.linalg.norm(lam * self.external_forces() * self.residual_weights())
+        return float(max(loads, stiffness))
+
+    def position_scale(self):
+        """Coordinates the model can reach: its layout's extent from the origin
+        plus the longest rod (a fixed scale for the round-off of chords)."""
+        x = self.assembly.initial_positions()
+        return float(np.abs(x).max() + max(r.length for r in self.rods))
+
+    def roundoff_floor(self):
+        """Round-off level of the weighted residual norm, at the fixed
+        :meth:`position_scale` (see RodAssembly.force_noise)."""
+        return self.assembly.force_noise(self.position_scale())
 
     def static_problem(self, lam, relax_positions=True):
         """Newton problem (see :mod:`knitfem.solve.newton`) at load factor lam."""

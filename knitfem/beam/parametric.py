@@ -3,8 +3,10 @@
 The parameter lam drives the loads (``lam * f_ext``) and the prescribed
 motions (the path functions given to ``BeamModel.prescribe``).  Unknowns are
 the increments of the free dofs; every state handed out satisfies the
-supports at its own lam.  dR/dlam is exact: the tangent times the supports'
-velocity, minus the load vector.
+supports at its own lam.  dR/dlam is the tangent times the supports'
+velocity minus the load vector; the velocity is a central difference of the
+user's path functions (step 1e-6 max(1, |lam|): exact for the linear paths
+of the scenes, second order otherwise), not an exact derivative.
 """
 import numpy as np
 
@@ -26,10 +28,15 @@ class ParametricProblem:
         self.free = ~model.fixed
         n_nodes = model.assembly.n_nodes
         rotational = np.tile([False] * 3 + [True] * 3, n_nodes)
-        self.scale = np.where(rotational, 1.0 / model.length_scale(), 1.0)
-        w = np.where(rotational, 1.0, 1.0 / model.length_scale()) / np.sqrt(n_nodes)
-        self.weights = w[self.free]
+        self.scale = model.residual_weights()
+        unit = np.where(rotational, 1.0, 1.0 / model.length_scale())
+        self.weights = (unit / np.sqrt(n_nodes))[self.free]
+        self.step_unit = unit[self.free]
         self.f_ext = model.external_forces()
+        self.floor = model.roundoff_floor()
+        self.size = model.position_scale()
+        self._loads = float(np.linalg.norm(self.f_ext * self.scale))
+        self._stiffness = model.force_scale(0.0)
         # one rod numbered along its length has a banded Jacobian: keep that order
         self.ordering = "NATURAL" if len(model.rods) == 1 else "COLAMD"
 
@@ -44,8 +51,7 @@ class ParametricProblem:
         else:
             _, f, J = self.model.internal_forces(state, False)
         R = f - lam * self.f_ext
-        ref = max(np.linalg.norm(f * self.scale), np.linalg.norm(lam * self.f_ext * self.scale),
-                  1e-300)
+        ref = max(abs(lam) * self._loads, self._stiffness)      # model.force_scale(lam)
         if not jacobian:
             return R[self.free], None, None, ref
         return R[self.free], J, (Kv - self.f_ext)[self.free], ref
@@ -59,10 +65,14 @@ class ParametricProblem:
         return float(np.linalg.norm(r_free * self.scale[self.free]))
 
     def noise(self, state):
-        noise = self.model.assembly.force_noise(state.x)
-        if self.model.contact_model is not None:
-            noise = np.hypot(noise, self.model.contact_model.noise(state.x))
-        return noise
+        """Round-off floor at the model's fixed position scale (see StaticProblem)."""
+        if self.model.contact_model is None:
+            return self.floor
+        return float(np.hypot(self.floor, self.model.contact_model.noise(self.size)))
+
+    def correction_norm(self, du_free):
+        """Largest increment: translations over the length scale, rotations in rad."""
+        return float(np.max(np.abs(du_free * self.step_unit), initial=0.0))
 
     def full(self, v_free):
         """A free-dof vector (e.g. a null vector) as (n_nodes, 6)."""

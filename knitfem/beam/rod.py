@@ -42,7 +42,11 @@ def _vector3(name, value):
 
 
 def _elements(n):
-    if isinstance(n, bool) or int(n) != n or int(n) < 1:
+    try:
+        ok = not isinstance(n, (bool, str)) and int(n) == n and int(n) >= 1
+    except (TypeError, ValueError, OverflowError):        # None, NaN, inf
+        ok = False
+    if not ok:
         raise ValueError(f"elements must be an integer >= 1, got {n!r}")
     return int(n)
 
@@ -174,6 +178,11 @@ class Rod:
         R = check_positive("radius", radius)
         phi_end = check_positive("angle", angle)
         n = _elements(elements)
+        # each element turns by less than pi (the relative rotation's logarithm
+        # is unique) and by enough to leave distinct nodes
+        if not 1e-9 <= phi_end / n < np.pi:
+            raise ValueError(f"angle / elements must be in [1e-09, pi) rad per element, got "
+                             f"angle = {phi_end:g} over {n} elements")
         t0 = _vector3("tangent", tangent)
         t0 = t0 / np.linalg.norm(t0)
         n0 = _vector3("toward", toward)

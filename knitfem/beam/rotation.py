@@ -1,20 +1,103 @@
-"""Finite rotations as unit quaternions, vectorised over nodes or elements.
+"""Finite rotations as unit quaternions: the numpy API and the numba kernels.
 
 Convention: a quaternion is ``(w, x, y, z)`` with the scalar first, arrays have
 shape ``(n, 4)``; rotation vectors and 3-vectors have shape ``(n, 3)``.  The
 rotation matrix ``R(q)`` maps material (body) components to spatial ones, so the
 columns of ``R`` are the directors ``d1, d2, d3`` (``d1`` is the rod tangent).
 
-Conversions (exponential, logarithm, matrices) are scipy's
-:class:`~scipy.spatial.transform.Rotation`; this module adds the quaternion
-product matrices that the beam kernel differentiates and the frame builders the
-rod geometry needs.  Quaternion signs are never canonicalised: a rod rotated by
-2π ends with ``-q``, which is the same rotation, and nothing here breaks there.
+Two layers, one formula each:
+
+* kernels (numba, scalar, writing into caller-provided arrays, for the element
+  loop): :func:`quat_left_into`, :func:`quat_right_into`,
+  :func:`rotation_matrix_into` (of a not necessarily unit quaternion),
+  :func:`increment_map`, :func:`quadratic_form`, :func:`relative_quaternion`;
+* vectorised numpy functions over (..., 4) arrays built on those kernels
+  (:func:`quat_left`, :func:`quat_right`, :func:`quat_multiply`,
+  :func:`rotation_matrix`) plus exponential, logarithm and frame builders.
+
+scipy's :class:`~scipy.spatial.transform.Rotation` converts from matrices
+(:func:`director_frame`).  Quaternion signs are never canonicalised: a rod
+rotated by 2π ends with ``-q``, which is the same rotation, and nothing here
+breaks there.
 """
 import numpy as np
+from numba import njit
 from scipy.spatial.transform import Rotation
 
-_EYE3 = np.eye(3)
+@njit(cache=True)
+def quat_left_into(q, L):
+    """L(q) with L(q) @ p == q ⊗ p, written into L (4, 4)."""
+    L[0, 0] = q[0]
+    L[0, 1], L[0, 2], L[0, 3] = -q[1], -q[2], -q[3]
+    L[1, 0], L[2, 0], L[3, 0] = q[1], q[2], q[3]
+    L[1, 1], L[1, 2], L[1, 3] = q[0], -q[3], q[2]
+    L[2, 1], L[2, 2], L[2, 3] = q[3], q[0], -q[1]
+    L[3, 1], L[3, 2], L[3, 3] = -q[2], q[1], q[0]
+
+
+@njit(cache=True)
+def quat_right_into(q, R):
+    """R(q) with R(q) @ p == p ⊗ q, written into R (4, 4)."""
+    R[0, 0] = q[0]
+    R[0, 1], R[0, 2], R[0, 3] = -q[1], -q[2], -q[3]
+    R[1, 0], R[2, 0], R[3, 0] = q[1], q[2], q[3]
+    R[1, 1], R[1, 2], R[1, 3] = q[0], q[3], -q[2]
+    R[2, 1], R[2, 2], R[2, 3] = -q[3], q[0], q[1]
+    R[3, 1], R[3, 2], R[3, 3] = q[2], -q[1], q[0]
+
+
+@njit(cache=True)
+def increment_map(q, T):
+    """T (4, 3) = dq/dtheta = 1/2 R(q)[:, 1:] for the update q <- exp(theta) ⊗ q."""
+    T[0, 0], T[0, 1], T[0, 2] = -0.5 * q[1], -0.5 * q[2], -0.5 * q[3]
+    T[1, 0], T[1, 1], T[1, 2] = 0.5 * q[0], 0.5 * q[3], -0.5 * q[2]
+    T[2, 0], T[2, 1], T[2, 2] = -0.5 * q[3], 0.5 * q[0], 0.5 * q[1]
+    T[3, 0], T[3, 1], T[3, 2] = 0.5 * q[2], -0.5 * q[1], 0.5 * q[0]
+
+
+@njit(cache=True)
+def rotation_matrix_into(m, R):
+    """Rotation matrix of the (not necessarily unit) quaternion m, into R (3, 3)."""
+    w, x, y, z = m[0], m[1], m[2], m[3]
+    s = 1.0 / (w * w + x * x + y * y + z * z)
+    R[0, 0] = (w * w + x * x - y * y - z * z) * s
+    R[1, 1] = (w * w - x * x + y * y - z * z) * s
+    R[2, 2] = (w * w - x * x - y * y + z * z) * s
+    R[0, 1] = 2.0 * (x * y - w * z) * s
+    R[1, 0] = 2.0 * (x * y + w * z) * s
+    R[0, 2] = 2.0 * (x * z + w * y) * s
+    R[2, 0] = 2.0 * (x * z - w * y) * s
+    R[1, 2] = 2.0 * (y * z - w * x) * s
+    R[2, 1] = 2.0 * (y * z + w * x) * s
+
+
+@njit(cache=True)
+def quadratic_form(a, b, Q):
+    """Q (4, 4) with a·rot(m) b == m·Q m, rot(m) = |m|^2 R(m/|m|) (Horn's matrix)."""
+    ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    Q[0, 0] = ab
+    Q[0, 1] = Q[1, 0] = b[1] * a[2] - b[2] * a[1]
+    Q[0, 2] = Q[2, 0] = b[2] * a[0] - b[0] * a[2]
+    Q[0, 3] = Q[3, 0] = b[0] * a[1] - b[1] * a[0]
+    for i in range(3):
+        for j in range(3):
+            Q[i + 1, j + 1] = a[i] * b[j] + b[i] * a[j]
+        Q[i + 1, i + 1] -= ab
+
+
+@njit(cache=True)
+def relative_quaternion(qA, qB, p):
+    """p = conj(qA) ⊗ qB; returns the sign (+-1) that makes p0 >= 0."""
+    p[0] = qA[0] * qB[0] + qA[1] * qB[1] + qA[2] * qB[2] + qA[3] * qB[3]
+    p[1] = qA[0] * qB[1] - qB[0] * qA[1] - (qA[2] * qB[3] - qA[3] * qB[2])
+    p[2] = qA[0] * qB[2] - qB[0] * qA[2] - (qA[3] * qB[1] - qA[1] * qB[3])
+    p[3] = qA[0] * qB[3] - qB[0] * qA[3] - (qA[1] * qB[2] - qA[2] * qB[1])
+    sign = 1.0
+    if p[0] < 0.0:
+        sign = -1.0
+        for i in range(4):
+            p[i] = -p[i]
+    return sign
 
 
 def hat(v):
@@ -32,26 +115,34 @@ def quat_conjugate(q):
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
+@njit(cache=True)
+def _each(which, q, out):
+    """The kernel ``which`` (0 left, 1 right, 2 rotation matrix) on every row."""
+    for i in range(q.shape[0]):
+        if which == 0:
+            quat_left_into(q[i], out[i])
+        elif which == 1:
+            quat_right_into(q[i], out[i])
+        else:
+            rotation_matrix_into(q[i], out[i])
+
+
+def _batched(which, q, shape):
+    q = np.asarray(q, dtype=float)
+    flat = np.ascontiguousarray(q.reshape(-1, 4))
+    out = np.empty((flat.shape[0],) + shape)
+    _each(which, flat, out)
+    return out.reshape(q.shape[:-1] + shape)
+
+
 def quat_left(q):
     """Matrix of left multiplication, ``quat_left(p) @ q == p ⊗ q``; (..., 4, 4)."""
-    q = np.asarray(q, dtype=float)
-    out = np.empty(q.shape + (4,))
-    out[..., 0, 0] = q[..., 0]
-    out[..., 0, 1:] = -q[..., 1:]
-    out[..., 1:, 0] = q[..., 1:]
-    out[..., 1:, 1:] = q[..., 0, None, None] * _EYE3 + hat(q[..., 1:])
-    return out
+    return _batched(0, q, (4, 4))
 
 
 def quat_right(q):
     """Matrix of right multiplication, ``quat_right(q) @ p == p ⊗ q``; (..., 4, 4)."""
-    q = np.asarray(q, dtype=float)
-    out = np.empty(q.shape + (4,))
-    out[..., 0, 0] = q[..., 0]
-    out[..., 0, 1:] = -q[..., 1:]
-    out[..., 1:, 0] = q[..., 1:]
-    out[..., 1:, 1:] = q[..., 0, None, None] * _EYE3 - hat(q[..., 1:])
-    return out
+    return _batched(1, q, (4, 4))
 
 
 def quat_multiply(p, q):
@@ -71,7 +162,7 @@ def quat_from_rotation(r):
 
 def rotation_matrix(q):
     """Rotation matrices (n, 3, 3) of unit quaternions (n, 4)."""
-    return np.atleast_3d(as_rotation(q).as_matrix()).reshape(-1, 3, 3)
+    return _batched(2, np.atleast_2d(q), (3, 3))
 
 
 def quat_exp(theta):

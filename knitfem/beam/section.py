@@ -9,12 +9,17 @@ import math
 import numpy as np
 
 
-def check_positive(name, value, *, allow_zero=False):
-    """Return ``float(value)`` or raise ValueError naming the parameter and range."""
+def check_real(name, value):
+    """Return ``float(value)`` or raise ValueError naming the parameter."""
     try:
-        v = float(value)
+        return float(value)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a real number, got {value!r}") from None
+
+
+def check_positive(name, value, *, allow_zero=False):
+    """Return ``float(value)`` or raise ValueError naming the parameter and range."""
+    v = check_real(name, value)
     ok = v >= 0.0 if allow_zero else v > 0.0
     if not (math.isfinite(v) and ok):
         rng = "[0, inf)" if allow_zero else "(0, inf)"
@@ -43,8 +48,11 @@ class Section:
             object.__setattr__(self, name, check_positive(name, getattr(self, name)))
         object.__setattr__(self, "line_density",
                            check_positive("line_density", self.line_density, allow_zero=True))
-        if not (math.isnan(self.radius) or self.radius > 0):
-            raise ValueError(f"radius must be positive (or NaN for 'none'), got {self.radius!r}")
+        radius = check_real("radius", self.radius)
+        if not (math.isnan(radius) or 0 < radius < math.inf):
+            raise ValueError(f"radius must be finite and in (0, inf) (or NaN for 'none'), "
+                             f"got {self.radius!r}")
+        object.__setattr__(self, "radius", radius)
 
     @property
     def CN(self):
@@ -67,7 +75,7 @@ class Section:
         """
         d = check_positive("diameter", diameter)
         E = check_positive("E", E)
-        nu = float(nu)
+        nu = check_real("nu (Poisson ratio)", nu)
         if not (-1.0 < nu <= 0.5):
             raise ValueError(f"nu (Poisson ratio) must be in (-1, 0.5], got {nu!r}")
         A = math.pi * d * d / 4.0
@@ -93,6 +101,7 @@ class Section:
         b = check_positive("width", width)
         t = check_positive("height", height)
         E = check_positive("E", E)
+        nu = check_real("nu (Poisson ratio)", nu)
         if not (-1.0 < nu <= 0.5):
             raise ValueError(f"nu (Poisson ratio) must be in (-1, 0.5], got {nu!r}")
         G = E / (2.0 * (1.0 + nu))

@@ -7,9 +7,12 @@ from ..solve.newton import linear_solve
 class StaticProblem:
     """The model's equilibrium at fixed lam, on the free dofs, for Newton.
 
-    Its norm divides moments by the model length scale so forces and moments
-    enter |r| in one unit; the relative residual is |r| over the size of the
-    internal forces including support reactions (or of the loads, if larger).
+    Its norm weighs moments by 1/h (the node's element length) so a moment
+    imbalance counts like the force pair carrying it; the relative residual is
+    |r| over the model's fixed force scale (loads, or the bending force of its
+    softest rod), its round-off floor is taken at the model's fixed position
+    scale, and increments are measured against its length scale (translations)
+    and in radians (rotations): see :mod:`knitfem.solve.newton`.
     """
 
     def __init__(self, model, lam, relax_positions=True):
@@ -19,8 +22,12 @@ class StaticProblem:
         self.relax = relax_positions
         rotational = np.tile([False, False, False, True, True, True], model.assembly.n_nodes)
         self.translations = self.free & ~rotational
-        self.weight = np.where(rotational, 1.0 / model.length_scale(), 1.0)
+        self.weight = model.residual_weights()
         self.f_ext = model.external_forces()
+        self.ref = model.force_scale(self.lam)
+        self.floor = model.roundoff_floor()
+        self.size = model.position_scale()
+        self.step_unit = np.where(rotational, 1.0, 1.0 / model.length_scale())[self.free]
 
     def begin_increment(self, lam_prev, state_prev):
         """The increment from (lam_prev, state_prev) to lam: the reference of
@@ -56,19 +63,21 @@ class StaticProblem:
         return float(np.linalg.norm(r_free * self.weight[self.free]))
 
     def noise(self, state):
-        """Round-off level of |r| (see RodAssembly.force_noise): stiff, finely
-        meshed rods under small loads cannot get below it."""
-        noise = self.model.assembly.force_noise(state.x)
-        if self.model.contact_model is not None:
-            noise = np.hypot(noise, self.model.contact_model.noise(state.x))
-        return noise
+        """Round-off level of |r| at the model's fixed position scale (see
+        RodAssembly.force_noise): stiff, finely meshed rods under small loads
+        cannot get below it.  Contact adds its own, for the pairs now active."""
+        if self.model.contact_model is None:
+            return self.floor
+        return float(np.hypot(self.floor, self.model.contact_model.noise(self.size)))
+
+    def correction_norm(self, du_free):
+        """Largest increment: translations over the length scale, rotations in rad."""
+        return float(np.max(np.abs(du_free * self.step_unit), initial=0.0))
 
     def evaluate(self, state, jacobian=True):
         _, f, J = self.model.internal_forces(state, jacobian, self.free)
         r = f - self.lam * self.f_ext
-        ref = max(np.linalg.norm(f * self.weight),
-                  np.linalg.norm(self.lam * self.f_ext * self.weight), 1e-300)
-        return r[self.free], J, ref
+        return r[self.free], J, self.ref
 
     def retract(self, state, du_free):
         du = np.zeros(self.free.shape[0])

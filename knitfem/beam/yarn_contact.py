@@ -16,10 +16,10 @@ regularised friction law would use the same reference (slip of the slave
 point along the master over dt).
 """
 import numpy as np
-from scipy import sparse
 
-from ..contact import PenaltyLaw, SegmentContact
-from .assembly import DOFS_PER_NODE
+from ..contact import PenaltyLaw, SegmentContact, carry_slip, friction_forces
+from .assembly import DOFS_PER_NODE, block_matrix, block_vector
+from .rotation import quat_conjugate, quat_multiply, rotation_vector
 
 
 class BeamContact:
@@ -40,14 +40,18 @@ class BeamContact:
         self.report = None
         self.damping = float(damping)      # line load per gap rate (force time / length^2)
         self.rate_reference = None         # (positions (n_nodes, 3), dt) during an increment
+        self.friction = 0.0                # Coulomb coefficient mu
+        self.slip = 0.0                    # stick slip eps (length)
+        self.anchors = None                # friction anchors of the current increment
+        self.anchor_q = None               # nodal frames (n_nodes, 4) when they were set
 
-    def noise(self, x):
-        """Round-off level of the contact forces: the gap of every active
-        Gauss point carries an error ~eps |x|, which the penalty turns into
-        k eps |x| per unit length (summed over the contact length)."""
+    def noise(self, size):
+        """Round-off level of the contact forces for coordinates of magnitude
+        ``size`` (a fixed scale): the gap of every active Gauss point carries an
+        error ~eps size, which the penalty turns into k eps size per unit
+        length (summed over the contact length of the last evaluation)."""
         if self.report is None or self.report.active_pairs == 0:
             return 0.0
-        size = float(np.abs(x).max())
         active_length = self.report.active_pairs * float(self.length.max())
         return float(self.segments.law.k * np.finfo(float).eps * size
                      * np.sqrt(active_length * self.length.max()))
@@ -57,9 +61,37 @@ class BeamContact:
         nodes = self.nodes[ends // 2, ends % 2]
         return (DOFS_PER_NODE * nodes[:, :, None] + np.arange(3)).reshape(-1, 18)
 
-    def forces(self, x, tangent=True, free=None, direction=None):
-        """Energy, force vector (n_dofs,), tangent (CSR, free dofs only if
-        ``free`` is given) and K @ direction (or None)."""
+    def _rot_dofs(self, ends):
+        """(m, 12) global rotation dofs of the rotation slots' segment ends."""
+        nodes = self.nodes[ends // 2, ends % 2]
+        return (DOFS_PER_NODE * nodes[:, :, None] + 3 + np.arange(3)).reshape(-1, 12)
+
+    def _turns(self, q):
+        """Rotation vectors (n_nodes, 3) of the frames since the friction
+        anchors were set (spatial), and at the segment ends (n_seg, 2, 3)."""
+        theta = rotation_vector(quat_multiply(q, quat_conjugate(self.anchor_q)))
+        return theta, theta[self.nodes]
+
+    def anchor_friction(self, x, q, carry=True):
+        """Anchor friction at positions x (n_nodes, 3) and frames q (n_nodes, 4):
+        every Gauss point in contact there becomes an anchor with its normal
+        force and frame at x; with ``carry`` it keeps the slip it had under the
+        previous anchors (clipped to the stick radius), so the friction
+        persists across increments and lagged updates (see
+        :mod:`knitfem.contact.friction`)."""
+        if self.friction <= 0.0:
+            self.anchors = None
+            return
+        a, b = self.nodes[:, 0], self.nodes[:, 1]
+        new = self.segments.friction_anchors(x[a], x[b], self.friction, self.length)
+        if carry and self.anchors is not None:
+            new = carry_slip(new, self.anchors, x[a], x[b], self.slip, self._turns(q)[1])
+        self.anchors, self.anchor_q = new, np.array(q, dtype=float)
+
+    def blocks(self, x, q=None, tangent=True):
+        """Energy and per-block groups [(dofs (m, w), gradients (m, w), Hessians
+        (m, w, w) or None)]: contact pairs (w = 18 translations), friction
+        anchors (w = 30: 18 translations, 12 rotations; frames q needed)."""
         a, b = self.nodes[:, 0], self.nodes[:, 1]
         previous, rate = None, 0.0
         if self.damping > 0.0 and self.rate_reference is not None:
@@ -67,27 +99,55 @@ class BeamContact:
             previous, rate = (x_prev[a], x_prev[b]), self.damping / dt
         energy, _, ends, grads, hess, self.report = self.segments.evaluate(
             x[a], x[b], tangent, self.length, previous, rate)
-        dofs = self._dofs(ends)
-        f = np.bincount(dofs.ravel(), grads.ravel(), minlength=self.n_dofs)
+        groups = [(self._dofs(ends), grads, hess)]
+        if self.anchors is not None and len(self.anchors.ends):
+            if q is None:
+                raise ValueError("friction needs the frames q (it twists the yarns)")
+            theta, ends_theta = self._turns(q)
+            Ef, gf, hf = friction_forces(self.anchors, x[a], x[b], self.slip, tangent,
+                                         ends_theta)
+            # d theta / d(spatial increment) = J_l(theta)^-1: exact gradients for
+            # the energy line search (the Hessian keeps the leading term)
+            rot_nodes = self.nodes[self.anchors.rot_ends // 2, self.anchors.rot_ends % 2]
+            Jinv = _left_jacobian_inverse(theta[rot_nodes])            # (k, 4, 3, 3)
+            g_rot = gf[:, 18:].reshape(-1, 4, 3)
+            gf = np.concatenate([gf[:, :18], np.einsum("kbji,kbj->kbi", Jinv,
+                                                       g_rot).reshape(-1, 12)], axis=1)
+            energy += Ef
+            dofs = np.concatenate([self._dofs(self.anchors.ends),
+                                   self._rot_dofs(self.anchors.rot_ends)], axis=1)
+            groups.append((dofs, gf, hf))
+        return energy, groups
+
+    def forces(self, x, tangent=True, free=None, direction=None, q=None):
+        """Energy, force vector (n_dofs,), tangent (CSR, free dofs only if
+        ``free`` is given) and K @ direction (or None)."""
+        energy, groups = self.blocks(x, q, tangent)
+        f = np.zeros(self.n_dofs)
         K = Kv = None
         if tangent:
-            rows = np.broadcast_to(dofs[:, :, None], hess.shape).ravel()
-            cols = np.broadcast_to(dofs[:, None, :], hess.shape).ravel()
-            n = self.n_dofs
-            if free is not None:
-                index = np.cumsum(free) - 1
-                index[~free] = -1
-                rows, cols = index[rows], index[cols]
-                keep = (rows >= 0) & (cols >= 0)
-                rows, cols, data, n = rows[keep], cols[keep], hess.ravel()[keep], int(free.sum())
-            else:
-                data = hess.ravel()
-            K = sparse.csr_matrix((data, (rows, cols)), shape=(n, n))
-            if direction is not None:
-                Kv = np.bincount(dofs.ravel(), np.einsum("mij,mj->mi", hess,
-                                                         direction[dofs]).ravel(),
-                                 minlength=self.n_dofs)
+            Kv = np.zeros(self.n_dofs) if direction is not None else None
+        for dofs, grads, hess in groups:
+            f += block_vector(dofs, grads, self.n_dofs)
+            if tangent:
+                Kg = block_matrix(dofs, hess, self.n_dofs, free)
+                K = Kg if K is None else K + Kg
+                if direction is not None:
+                    Kv += block_vector(dofs, np.einsum("mij,mj->mi", hess, direction[dofs]),
+                                       self.n_dofs)
         return energy, f, K, Kv
+
+
+def _left_jacobian_inverse(theta):
+    """J_l(theta)^-1 (..., 3, 3) of SO(3): d log(exp(d) exp(theta)) / d d at d = 0."""
+    t = np.linalg.norm(theta, axis=-1)[..., None, None]
+    W = np.zeros(theta.shape + (3,))
+    W[..., 0, 1], W[..., 0, 2], W[..., 1, 2] = -theta[..., 2], theta[..., 1], -theta[..., 0]
+    W[..., 1, 0], W[..., 2, 0], W[..., 2, 1] = theta[..., 2], -theta[..., 1], theta[..., 0]
+    small = t < 1e-4
+    ts = np.where(small, 1.0, t)
+    coef = np.where(small, 1.0 / 12.0, (1.0 - 0.5 * ts * np.sin(ts) / (1.0 - np.cos(ts))) / ts**2)
+    return np.eye(3) - 0.5 * W + coef * (W @ W)
 
 
 def default_law(rods, factor, regularisation):

@@ -13,6 +13,7 @@ import numpy as np
 from .broad import brute_force_pairs, candidate_pairs
 from .law import DEFAULT_FACTOR, DEFAULT_REGULARISATION, PenaltyLaw
 from .master import bulge, neighbours
+from .friction import anchors, carry_slip, friction_forces
 from .narrow import pair_forces
 
 __all__ = ["ContactReport", "PenaltyLaw", "SegmentContact", "brute_force_pairs",
@@ -95,3 +96,18 @@ class SegmentContact:
         return energy, active, ends, grads, hess, ContactReport(
             int(pairs.shape[0]), int(active.shape[0]), float(stats[0]), penetration,
             penetration / R, float(stats[2]), np.minimum(seg_gap, self.law.g0))
+
+    def friction_anchors(self, x0, x1, mu, length=None, reference=None):
+        """Friction anchors (:func:`knitfem.contact.friction.anchors`) of every
+        Gauss point in contact at the segment ends x0, x1, slip measured from
+        ``reference`` = (x0, x1) (default: from x0, x1 themselves)."""
+        prev, nxt = neighbours(x0, x1, self.rod, self.s_mid, self._order)
+        bulges = bulge(x0, x1, prev, nxt)
+        pairs = candidate_pairs(x0, x1, self.radius, self.rod, self.s_mid, self.law.g0,
+                                self.exclude, bulges)
+        if length is not None and self._ranked_by is not length:
+            self.rank, self._ranked_by = slave_rank(self.rod, length), length
+        points = pair_forces(x0, x1, self.radius, pairs, self.law, self.per_diameter, 4, False,
+                             length, self.rank, None, 0.0, prev, nxt, bulges, record=True)[-1]
+        x0r, x1r = (x0, x1) if reference is None else reference
+        return anchors(points, x0r, x1r, prev, nxt, mu, self.radius)

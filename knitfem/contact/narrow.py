@@ -19,9 +19,11 @@ u = p - c(t*), t* the closest point (local Newton from the chord projection),
 
     g = |u| - (r_a + r_b),   energy  sum_gauss  w l_A phi(g).
 
-A is the slave of the pair and B, among A's candidate masters, the segment
-of smallest gap from p (preferring masters p projects inside, so a point
-facing a joint is not counted twice).  Slaves are chosen per yarn (the yarn
+A is the slave of the pair.  A's candidate masters, in segment order, form
+stretches of master yarn (runs of neighbouring segments); in each stretch B
+is the segment of smallest gap from p, so every stretch within reach pushes
+on p once (a yarn squeezed between two others feels both) and the energy is
+continuous in the positions.  Slaves are chosen per yarn (the yarn
 with the finer elements, as the non-mortar side of a mortar method), so each
 contact is counted once.  Crossings are resolved by the Gauss points near
 them: ``per_diameter`` points per yarn diameter along every slave segment.
@@ -45,25 +47,17 @@ h = c psi (g - g_prev)/dt to phi' and h' = c (psi + psi' (g - g_prev))/dt to
 phi'', so the tangent stays exact (and symmetric); it stores no energy.
 Compiled with numba: the loop over pairs and Gauss points is the hot spot.
 """
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
+from .law import penalty
 from .master import (bulge, chord_distance, coefficients, gather, project, search_distance,
                      segment_distance)
 
 MAX_ORDER = 48
 SLOTS = 6                    # slave a0, a1; master M0..M3
-
-
-@njit(cache=True)
-def _law(g, k, g0):
-    """phi, phi', phi'' of the penalty law (see law.py)."""
-    if g >= g0:
-        return 0.0, 0.0, 0.0
-    if g >= 0.0:
-        t = g0 - g
-        return k * t**3 / (6.0 * g0), -k * t * t / (2.0 * g0), k * t / g0
-    return k * (g0 * g0 / 6.0 - 0.5 * g0 * g + 0.5 * g * g), -k * (0.5 * g0 - g), k
 
 
 @njit(cache=True)
@@ -79,7 +73,7 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, 
     g = d - R
     if g >= g0 or d < 1e-14 * R:
         return 0.0
-    phi, dphi, ddphi = _law(g, k, g0)
+    phi, dphi, ddphi = penalty(g, k, g0)
     if c_dt > 0.0:
         ramp = ddphi / k
         slope = -1.0 / g0 if g >= 0.0 else 0.0
@@ -155,7 +149,7 @@ def _masters_of_slaves(pairs, rank, nseg):
 
 @njit(cache=True)
 def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, per_diameter,
-               least, k, g0, tangent, x0p, x1p, c_dt):
+               least, k, g0, tangent, x0p, x1p, c_dt, record):
     """Slave Gauss points against their master curves.  A slave Gauss point
     interacts with every stretch of master yarn within reach (a run of
     neighbouring candidate master segments), with the segment of smallest gap
@@ -201,7 +195,7 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
             xi = XI[nq, q]
             for j in range(3):
                 p[j] = (1.0 - xi) * a0[j] + xi * a1[j]
-            best, best_gap, best_inside = -1, np.inf, False
+            best, best_gap = -1, np.inf
             last = -2
             for t in range(start[A], start[A + 1] + 1):
                 B = master[t] if t < start[A + 1] else -1
@@ -214,7 +208,7 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
                     if best_gap < g0:
                         hits_A[nhits], hits_q[nhits], hits_t[nhits] = A, q, best
                         nhits += 1
-                    best, best_gap, best_inside = -1, np.inf, False
+                    best, best_gap = -1, np.inf
                 if t == start[A + 1]:
                     break
                 last = B
@@ -223,12 +217,13 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
                 R = radius[A] + radius[B]
                 # the curve lies within ``bulge`` of its chord: far masters cost one distance
                 gap = chord_distance(p[0], p[1], p[2], x0[B], x1[B]) - R
-                inside = False
                 if gap - bulge[B] < g0:
-                    d, clamped = search_distance(p[0], p[1], p[2], C[B])
-                    gap, inside = d - R, not clamped
-                if (inside and not best_inside) or (inside == best_inside and gap < best_gap):
-                    best, best_gap, best_inside = t, gap, inside
+                    # along one stretch the master curves join with a continuous
+                    # tangent, so the nearest piece (its foot inside or at an end)
+                    # gives the distance to the stretch: continuous in p
+                    gap = search_distance(p[0], p[1], p[2], C[B])[0] - R
+                if gap < best_gap:
+                    best, best_gap = t, gap
     # compact numbering of the (slave, master) pairs that carry force
     slot = np.full(pairs.shape[0], -1, np.int64)
     active = 0
@@ -268,7 +263,25 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
         energy += _gauss_point(xi, x0[A], x1[A], M, has_prev, has_next, R,
                                WTS[nq, q] * length[A], k, g0, tangent, grads[m],
                                hess[m] if tangent else hess[0], stats, buf, g_prev, c_dt)
-    return energy, used, ends, grads, hess, stats, seg_gap
+    # optionally, every active Gauss point: slave, xi, weight, master, t*, normal, line load
+    n_rec = nhits if record else 0
+    rec_i = np.empty((n_rec, 3), np.int64)
+    rec_f = np.empty((n_rec, 7))
+    for h in range(n_rec):
+        A, q, t = hits_A[h], hits_q[h], hits_t[h]
+        B = master[t]
+        nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
+        xi = XI[nq, q]
+        for j in range(3):
+            p[j] = (1.0 - xi) * x0[A, j] + xi * x1[A, j]
+        has_prev, has_next = gather(B, x0, x1, prev, nxt, M)
+        tq, _, d = project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2)
+        rec_i[h, 0], rec_i[h, 1], rec_i[h, 2] = A, B, q
+        rec_f[h, 0], rec_f[h, 1], rec_f[h, 2] = xi, WTS[nq, q] * length[A], tq
+        for j in range(3):
+            rec_f[h, 3 + j] = u[j] / d if d > 0.0 else 0.0
+        rec_f[h, 6] = -penalty(d - radius[A] - radius[B], k, g0)[1]
+    return energy, used, ends, grads, hess, stats, seg_gap, rec_i, rec_f
 
 
 def _gauss_table():
@@ -284,9 +297,24 @@ def _gauss_table():
 _XI, _WTS = _gauss_table()
 
 
+class ContactPoints(NamedTuple):
+    """Every Gauss point in contact: slave segment, its xi on the chord, its
+    weight (quadrature weight x length), master segment, closest parameter t*
+    on the master curve, unit normal from the master toward the slave point,
+    line load (force per length) pushing them apart, Gauss index on the slave."""
+    slave: np.ndarray
+    xi: np.ndarray
+    weight: np.ndarray
+    master: np.ndarray
+    t: np.ndarray
+    normal: np.ndarray
+    load: np.ndarray
+    gauss: np.ndarray
+
+
 def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=True,
                 length=None, rank=None, previous=None, damping_rate=0.0, prev=None, nxt=None,
-                bulges=None):
+                bulges=None, record=False):
     """Contact of candidate segment pairs.
 
     Returns the energy; the (slave, master) pairs that carry force (k, 2); the
@@ -303,6 +331,7 @@ def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=Tru
     (n,) slave priority (default all equal: the lower index is the slave);
     previous : (x0, x1) at the start of the increment and damping_rate = c/dt
     (line load per gap change) for normal damping (see the module docstring);
+    record : also return the :class:`ContactPoints` (the anchors of friction);
     prev, nxt : (n,) neighbouring segments (default: no neighbours, every
     master a straight chord); bulges : :func:`bulge` of them, if known.
     """
@@ -319,9 +348,13 @@ def pair_forces(x0, x1, radius, pairs, law, per_diameter=6, least=4, tangent=Tru
         x0p, x1p = (np.ascontiguousarray(v, dtype=float) for v in previous)
     else:
         x0p, x1p, damping_rate = x0, x1, 0.0
-    energy, used, ends, grads, hess, stats, seg_gap = _all_pairs(
+    energy, used, ends, grads, hess, stats, seg_gap, rec_i, rec_f = _all_pairs(
         x0, x1, prev, nxt, bulge(x0, x1, prev, nxt) if bulges is None else bulges,
         np.asarray(radius, float), length, rank,
         pairs, _XI, _WTS, float(per_diameter), int(least), float(law.k), float(law.g0),
-        bool(tangent), x0p, x1p, damping_rate)
+        bool(tangent), x0p, x1p, damping_rate, bool(record))
+    if record:
+        return energy, used, ends, grads, (hess if tangent else None), stats, seg_gap, \
+            ContactPoints(rec_i[:, 0], rec_f[:, 0], rec_f[:, 1], rec_i[:, 1], rec_f[:, 2],
+                          rec_f[:, 3:6], rec_f[:, 6], rec_i[:, 2])
     return energy, used, ends, grads, (hess if tangent else None), stats, seg_gap

@@ -363,6 +363,29 @@ def plain_knit_swatch(n_wale, n_course, w=4.0, c=3.0, radius=0.4, *, points_per_
     return Swatch(loop, n_wale, n_course, tuple(yarns))
 
 
+def swatch_ties(swatch):
+    """Where a knitter weaves the tails in: (yarn_a, point_a, yarn_b, point_b)
+    index pairs into the yarns' ``points`` to be held at their distance.  The
+    knit yarn's first and last points are tied to the nearest point of the
+    bottom and top bind-off, and each bind-off's two ends to the nearest point
+    of the knit yarn (so no loop slides off a helix end).  Empty without
+    bind-off."""
+    if len(swatch.yarns) < 3:
+        return []
+    knit = swatch.yarns[0].points
+
+    def nearest(p, points):
+        return int(np.argmin(np.linalg.norm(points - p, axis=1)))
+
+    ties = [(0, 0, 1, nearest(knit[0], swatch.yarns[1].points)),
+            (0, len(knit) - 1, 2, nearest(knit[-1], swatch.yarns[2].points))]
+    for k in (1, 2):
+        helix = swatch.yarns[k].points
+        for end in (0, len(helix) - 1):
+            ties.append((k, end, 0, nearest(helix[end], knit)))
+    return ties
+
+
 def as_rods(swatch, section):
     """One naturally straight :class:`knitfem.beam.Rod` per yarn, starting bent
     into the knit (node tangents from the curve, twist-free frames)."""

@@ -15,6 +15,8 @@ from xml.sax.saxutils import quoteattr
 import meshio
 import numpy as np
 
+from .atomic import atomic_path, write_text
+
 
 def beam_mesh(model, state, **extra_point_data):
     """meshio.Mesh of a :class:`knitfem.beam.BeamModel` state."""
@@ -35,7 +37,7 @@ def beam_mesh(model, state, **extra_point_data):
     cell_data = {"gamma": [gamma], "kappa": [kappa], "rod": [asm.rod_of_element.astype(np.int32)]}
     contact = model.contact_model
     if contact is not None:
-        _, fc, _, _ = contact.forces(state.x, tangent=False)
+        _, fc, _, _ = contact.forces(state.x, tangent=False, q=state.q)
         gap = contact.report.segment_gap
         point_data["contact_force"] = -fc.reshape(-1, 6)[:, :3]
         cell_data["contact_gap"] = [gap]
@@ -59,10 +61,10 @@ def curve_mesh(curves, point_data=None, cell_data=None):
 
 
 def write_mesh(path, mesh):
-    """Write a meshio mesh, creating the folder; returns the path."""
+    """Write a meshio mesh atomically, creating the folder; returns the path."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    mesh.write(path)
+    with atomic_path(path) as tmp:
+        mesh.write(tmp, file_format="vtu" if path.suffix == ".vtu" else None)
     return path
 
 
@@ -77,6 +79,5 @@ def write_series(path, files, times):
     rows = "\n".join(
         f'    <DataSet timestep="{float(t):.9g}" part="0" file={quoteattr(Path(f).name)}/>'
         for f, t in zip(files, times))
-    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
-                    f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
-    return path
+    return write_text(path, '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+                      f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")

@@ -7,13 +7,12 @@ sample, ``popup_z.png`` (max|z|/L against c/L: planar, popped +/-, critical
 point; Fig. 4a analogue) and ``popup_c0.60.png`` (off-screen tube render of the
 popped rod seen along the course direction y; Fig. 4b analogue).
 """
-import csv
-import json
 from pathlib import Path
 
 import numpy as np
 
-from ..io import beam_mesh, curve_mesh, write_beam_state, write_mesh, write_series
+from ..io import (beam_mesh, curve_mesh, save_figure, write_beam_state, write_csv, write_json,
+                  write_mesh, write_series)
 from .srod import max_abs_z
 
 
@@ -74,18 +73,14 @@ def plot_height(result, path, marks=None, title=None):
                            f"GJ/EI = {result.srod.gj_ei:.3f}, {result.srod.elements} elements"))
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    save_figure(fig, path)
     return path
 
 
 def _write_samples(samples, path):
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["c_over_L", "max_abs_z_over_L", "stable", "negative_eigenvalues"])
-        for s in samples:
-            w.writerow([f"{s.c_over_L:.6f}", f"{s.max_abs_z_over_L:.8f}", s.stable,
-                        getattr(s, "negative", "")])
+    write_csv(path, ["c_over_L", "max_abs_z_over_L", "stable", "negative_eigenvalues"],
+              [[f"{s.c_over_L:.6f}", f"{s.max_abs_z_over_L:.8f}", s.stable,
+                getattr(s, "negative", "")] for s in samples])
 
 
 def write_popup(result, out, *, render=True, marks=None, view_c=0.6):
@@ -96,10 +91,7 @@ def write_popup(result, out, *, render=True, marks=None, view_c=0.6):
     summary = result.summary()
     _write_samples(result.samples, out / "branch.csv")
     rows = list(branch_rows(result))
-    with open(out / "branches.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out / "branches.csv", list(rows[0]), [list(r.values()) for r in rows])
     files = [write_beam_state(out / "shapes" / f"popup_c{s.c_over_L:.4f}.vtu", result.model,
                               s.state) for s in result.samples]
     write_series(out / "shapes" / "popup.pvd", files, [s.c_over_L for s in result.samples])
@@ -112,7 +104,7 @@ def write_popup(result, out, *, render=True, marks=None, view_c=0.6):
         render_rods(out / f"popup_c{c:.2f}.png", beam_mesh(result.model, state),
                     radius=0.5 * result.srod.diameter, view=(0.0, -1.0, 0.0), zoom=1.5,
                     title=f"c/L = {c:.2f}: popped S-rod seen along the course direction (y)")
-    (out / "popup.json").write_text(json.dumps(summary, indent=2))
+    write_json(out / "popup.json", summary)
     return summary
 
 
@@ -142,8 +134,7 @@ def plot_heat_map(hm, path, title=None):
     ax.set_title(title or "S-rod pop-up height over the loop shape (Fig. 4c analogue)")
     ax.legend(fontsize=8, loc="lower left")
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    save_figure(fig, path)
     return path
 
 
@@ -183,8 +174,7 @@ def write_bspline_popup(result, out, *, render=True, marks=None, view_c=0.6):
                  f"{result.srod.w / result.srod.length:.3f} (no twist energy)")
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
-    fig.savefig(out / "popup_z.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, out / "popup_z.png")
     if render:
         near = min(result.samples, key=lambda s: abs(s.c_over_L - view_c))
         if near.max_abs_z_over_L > 0:
@@ -193,5 +183,5 @@ def write_bspline_popup(result, out, *, render=True, marks=None, view_c=0.6):
                         yarn_mesh(result.model, near.control),
                         radius=0.5 * result.srod.diameter, view=(0.0, -1.0, 0.0), zoom=1.5,
                         title=f"c/L = {near.c_over_L:.2f}: B-spline yarn seen along y")
-    (out / "popup.json").write_text(json.dumps(summary, indent=2))
+    write_json(out / "popup.json", summary)
     return summary

@@ -1,11 +1,12 @@
 """Pop-up over a plane of loop shapes: max|z|/L on a (c/L, w/L) grid and the
-critical curve c_crit(w/L) (paper Fig. 4c), one continuation per w/L, run in
-parallel processes."""
-import os
-from contextlib import contextmanager
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from multiprocessing import get_context
+critical curve c_crit(w/L) (paper Fig. 4c), one continuation per w/L.
+
+Each w/L column is a task of the sweep engine (:mod:`knitfem.sweep`):
+persisted as it finishes, resumable, run on a local process pool (one
+BLAS / numba thread per worker) or a Dask cluster.
+"""
 from dataclasses import dataclass
+import tempfile
 
 import numpy as np
 
@@ -20,7 +21,8 @@ class HeatMap:
     stable: np.ndarray            # (nw, nc) bool
     critical: np.ndarray          # (nw,) c_crit/L (NaN: none in range)
     elapsed: np.ndarray           # (nw,) solver seconds per column
-    errors: dict                  # w/L -> message, for columns that failed
+    errors: dict                  # w/L -> message, for columns that failed or did not run
+    sweep: object = None          # the knitfem.sweep.SweepResult
 
 
 def _column(w_over_L, c_grid, scene):
@@ -44,53 +46,44 @@ def _column(w_over_L, c_grid, scene):
     return height, stable, crit, result.elapsed_s
 
 
-_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-                     "NUMBA_NUM_THREADS")
+def popup_column(params, out_dir):
+    """Sweep task: the pop-up along ``params["c_over_L"]`` (descending, even
+    steps) at ``params["w_over_L"]``; ``params["scene"]``: :class:`SRod`
+    options (elements, poisson, ...).  Returns max|z|/L (null where c is
+    impossible), stability per c, c_crit/L (null: none in range) and the
+    solver's seconds."""
+    c_grid = np.asarray(params["c_over_L"], float)
+    height, stable, crit, elapsed = _column(float(params["w_over_L"]), c_grid,
+                                            dict(params.get("scene", {})))
+    return {"max_abs_z_over_L": height.tolist(), "stable": stable.tolist(),
+            "critical_c_over_L": crit, "solver_s": elapsed}
 
 
-@contextmanager
-def _single_threaded_children():
-    """Spawned workers inherit the environment: one BLAS / numba thread each,
-    as the processes already fill the cores (oversubscribed threads made the
-    12 x 23 heat map 2.7x slower on 2 cores)."""
-    saved = {k: os.environ.get(k) for k in _THREAD_VARIABLES}
-    os.environ.update({k: "1" for k in _THREAD_VARIABLES})
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
-def heat_map(w_values, c_grid, *, workers=None, progress=True, **scene):
-    """Run :func:`popup` for each w/L (processes in parallel, tqdm bar) and
-    collect the sampled heights.  ``c_grid`` must be descending and evenly
-    spaced; ``scene`` goes to :class:`SRod` (elements, poisson, ...)."""
+def heat_map(w_values, c_grid, *, out=None, resume=False, workers=None, scheduler=None,
+             progress=True, **scene):
+    """Run :func:`popup_column` for each w/L through :func:`knitfem.sweep.run_sweep`
+    and collect the sampled heights.  ``c_grid`` must be descending and evenly
+    spaced; ``scene`` goes to :class:`SRod` (elements, poisson, ...).  ``out``:
+    the sweep folder (default a temporary one); ``resume``, ``workers``,
+    ``scheduler``: as for :func:`knitfem.sweep.run_sweep`."""
+    from ..sweep import grid, run_sweep
     w_values = np.asarray(w_values, float)
     c_grid = np.asarray(c_grid, float)
+    constants = {"c_over_L": c_grid.tolist(), "scene": scene}
+    with tempfile.TemporaryDirectory(prefix="knitfem-heatmap-") as tmp:
+        result = run_sweep(popup_column, grid(w_over_L=w_values), out or tmp,
+                           constants=constants, resume=resume, workers=workers,
+                           scheduler=scheduler, progress=progress, desc="w/L columns")
     n = len(w_values)
-    out = HeatMap(w_values, c_grid, np.full((n, len(c_grid)), np.nan),
-                  np.zeros((n, len(c_grid)), bool), np.full(n, np.nan), np.zeros(n), {})
-    workers = workers or os.cpu_count() or 1
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=n, desc="w/L columns", unit="col")
-    # spawn, not fork: a forked child inherits numba's thread pool in an unusable state
-    with _single_threaded_children(), \
-            ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
-        futures = {pool.submit(_column, w, c_grid, scene): i for i, w in enumerate(w_values)}
-        for fut in as_completed(futures):
-            i = futures[fut]
-            try:
-                out.height[i], out.stable[i], out.critical[i], out.elapsed[i] = fut.result()
-            except (ValueError, RuntimeError) as err:    # keep the other columns
-                out.errors[float(w_values[i])] = str(err)
-            if bar is not None:
-                bar.update()
-    if bar is not None:
-        bar.close()
-    return out
+    hm = HeatMap(w_values, c_grid, np.full((n, len(c_grid)), np.nan),
+                 np.zeros((n, len(c_grid)), bool), np.full(n, np.nan), np.zeros(n), {}, result)
+    for i, record in enumerate(result.records):
+        if record is None or record["status"] != "done":
+            hm.errors[float(w_values[i])] = "not run" if record is None else record["error"]
+            continue
+        r = record["result"]
+        hm.height[i] = [np.nan if z is None else z for z in r["max_abs_z_over_L"]]
+        hm.stable[i] = r["stable"]
+        hm.critical[i] = np.nan if r["critical_c_over_L"] is None else r["critical_c_over_L"]
+        hm.elapsed[i] = r["solver_s"]
+    return hm

@@ -29,6 +29,7 @@ from ..solve.stability import negative_eigenvalue_count
 from ..threads import threads_for
 
 OUT_OF_PLANE = [2, 3, 4]      # uz, rx, ry
+MAX_SAMPLES = 1e6             # samples of the stable path: each is a Newton solve
 
 
 @dataclass
@@ -76,7 +77,10 @@ class SRod:
         return math.sqrt(self.length**2 - self.w**2)
 
     def check_c(self, name, c_over_L):
-        c = float(c_over_L)
+        try:
+            c = float(c_over_L)
+        except (TypeError, ValueError):
+            c = math.nan                                  # refused below, by name
         hi = self.c_max / self.length
         if not (math.isfinite(c) and 0.0 < c < hi):
             raise ValueError(f"{name} must be in (0, sqrt(1 - (w/L)^2)) = (0, {hi:.6f}) for "
@@ -188,6 +192,9 @@ def popup(srod, c_from=0.95, c_to=0.45, c_step=0.05, *, ds=0.2, progress=None,
     if not c_to < c_from:
         raise ValueError(f"c_to must be smaller than c_from, got c_from = {c_from}, c_to = {c_to}")
     c_step = check_positive("c_step", c_step)
+    if (c_from - c_to) / c_step > MAX_SAMPLES:
+        raise ValueError(f"c_step must be at least (c_from - c_to) / {MAX_SAMPLES:g} = "
+                         f"{(c_from - c_to) / MAX_SAMPLES:.3g}, got {c_step!r}")
     with threads_for(6 * (srod.elements + 1), pin_threads):
         return _popup(srod, c_from, c_to, c_step, ds, progress)
 

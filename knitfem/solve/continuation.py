@@ -133,7 +133,7 @@ class FixedParameter:
 
     def __init__(self, problem, lam):
         self.problem, self.lam = problem, lam
-        for name in ("norm", "noise"):
+        for name in ("norm", "noise", "correction_norm"):
             if hasattr(problem, name):
                 setattr(self, name, getattr(problem, name))
 
@@ -160,6 +160,8 @@ class _Corrector:
         self.norm = (lambda r: norm(r[:-1])) if norm else (lambda r: float(np.linalg.norm(r[:-1])))
         if hasattr(problem, "noise"):
             self.noise = lambda y: problem.noise(y[0])
+        if hasattr(problem, "correction_norm"):
+            self.correction_norm = lambda dy: max(problem.correction_norm(dy[:-1]), abs(dy[-1]))
 
     def evaluate(self, y, jacobian=True):
         x, lam, delta = y
@@ -200,7 +202,8 @@ class Continuation:
 
     def point(self, x, lam, tx_ref, tl_ref, s=0.0, iterations=0):
         """A Point at the solution (x, lam): unit tangent from
-        [J R_lam; ref^T W^2, ref_l] t = [0; 1], oriented along the reference,
+        [J R_lam; ref^T W^2, ref_l] t = [0; 1] - its last row makes
+        <t, ref> = 1 > 0, so it points along the reference by construction -
         and the inertia of sym(J)."""
         w = self.weights(tx_ref.shape[0])
         _, J, R_lam, _ = self.problem.evaluate(x, lam, True)
@@ -210,8 +213,6 @@ class Continuation:
         tx, tl = t[:-1], t[-1]
         size = np.sqrt(np.sum((w * tx) ** 2) + tl**2)
         tx, tl = tx / size, tl / size
-        if w**2 @ (tx * tx_ref) + tl * tl_ref < 0:
-            tx, tl = -tx, -tl
         negative, logdet = inertia(J) if self.stability else (None, 0.0)
         return Point(x, float(lam), tx, float(tl), negative, logdet, s, iterations)
 
@@ -256,13 +257,20 @@ class Continuation:
     # -- events ---------------------------------------------------------------------------
     def locate_event(self, a, b, index):
         """Brent's method on the arclength between a and b for the zero of the
-        test function: t_lam (fold) or the signed determinant (bifurcation)."""
+        test function: t_lam (fold) or the signed determinant (bifurcation).
+        When the count of negative eigenvalues changes by an even number in
+        one step (two eigenvalues crossing, e.g. on a coarse mesh) the
+        determinant keeps its sign: the test function is then the change of
+        the count itself (+1 before, -1 after; Brent falls back to bisection)."""
         fold = a.tl * b.tl < 0
         kind = "fold" if fold else "bifurcation"
+        even = not fold and (b.negative - a.negative) % 2 == 0
 
         def test(p):
             if fold:
                 return p.tl
+            if even:
+                return 1.0 if p.negative == a.negative else -1.0
             return (-1.0) ** p.negative * np.exp(np.clip(p.logdet - a.logdet, -700, 700))
 
         ds = b.s - a.s

@@ -12,10 +12,22 @@ A *problem* is an object with two methods:
 
 and optionally ``start(x) -> x`` (make x satisfy the problem's constraints
 before the first iteration), ``norm(r) -> float`` (a weighted norm when the
-entries of r carry different units; default Euclidean) and ``noise(x) ->
-float`` (the round-off level of |r| at x: stiff problems cannot reduce the
-residual below it, so the tolerance never asks for less).  Nothing here knows
-about beams.
+entries of r carry different units; default Euclidean), ``noise(x) ->
+float`` (the round-off level of |r|: stiff problems cannot reduce the
+residual below it, so the tolerance never asks for less) and
+``correction_norm(dx) -> float`` (the size of an increment relative to the
+problem's own length scales, dimensionless).  Nothing here knows about beams.
+
+When is a state converged?  Three rules keep the test from being fooled:
+
+* ``ref`` and ``noise`` must be *fixed scales of the problem* (its loads,
+  stiffness and geometry), not of the current iterate: a round-off floor that
+  grows with |x| accepts a state thrown far away by a bad predictor.
+* A start is accepted without iterating only if it meets ``rtol * ref`` itself;
+  the round-off floor counts only after a Newton correction has been computed.
+* After iterating, the residual must be within tolerance (or the floor) *and*
+  the last correction small (``correction_norm <= ctol``), so a residual that
+  is small only because the floor is large does not pass.
 """
 from dataclasses import dataclass, field
 
@@ -29,14 +41,18 @@ STAGNATION = 10.0      # a line search that stalls within this factor of the noi
 
 class NewtonError(RuntimeError):
     """Newton failed.  ``reason`` is one of 'max_iterations', 'nonfinite',
-    'singular', 'line_search'; ``state`` is the last iterate, ``history`` the
-    relative residuals so far."""
+    'singular', 'line_search', 'unstable'; ``state`` is the last iterate,
+    ``history`` the relative residuals so far."""
 
     def __init__(self, reason, message, state, history):
         super().__init__(message)
         self.reason = reason
         self.state = state
         self.history = list(history)
+
+    def __reduce__(self):
+        # picklable (process pools hand errors back to the parent)
+        return (type(self), (self.reason, str(self), self.state, self.history))
 
 
 @dataclass
@@ -45,6 +61,7 @@ class NewtonResult:
     iterations: int
     history: list = field(default_factory=list)   # relative residual per iterate
     roundoff_limited: bool = False                # stopped at the noise floor above rtol
+    correction: float = 0.0                       # size of the last correction (correction_norm)
 
     @property
     def residual(self):
@@ -63,9 +80,10 @@ def linear_solve(J, b):
     return np.linalg.solve(J, b)
 
 
-def newton(problem, x0, *, rtol=1e-10, atol=0.0, max_iter=25, line_search=False,
+def newton(problem, x0, *, rtol=1e-10, atol=0.0, ctol=1e-6, max_iter=25, line_search=False,
            max_cuts=10, where=""):
-    """Solve ``problem`` from ``x0`` to |r| <= rtol * ref + atol.
+    """Solve ``problem`` from ``x0`` to |r| <= rtol * ref + atol (or the round-off
+    floor) with a last correction of size <= ctol (see the module docstring).
 
     Returns a :class:`NewtonResult`; raises :class:`NewtonError` with the last
     state when the iteration diverges, stalls, meets a singular Jacobian or a
@@ -74,20 +92,28 @@ def newton(problem, x0, *, rtol=1e-10, atol=0.0, max_iter=25, line_search=False,
     at = f" at {where}" if where else ""
     norm_of = getattr(problem, "norm", np.linalg.norm)
     noise_of = getattr(problem, "noise", lambda _: 0.0)
+    size_of = getattr(problem, "correction_norm", None)
     x = problem.start(x0) if hasattr(problem, "start") else x0
     r, J, ref = problem.evaluate(x, True)
     history = []
+    correction = np.inf          # no correction computed yet
     for it in range(max_iter + 1):
         norm = float(norm_of(r))
         if not np.isfinite(norm):
             raise NewtonError("nonfinite", f"Newton{at}: residual is not finite at iteration "
                               f"{it} (diverged or invalid state)", x, history)
         history.append(norm / ref)
-        # below the round-off level nothing is measurable: a stress-free start, or
-        # loads too small for the stiffness, converge there (and say so)
         noise = noise_of(x)
-        if norm <= max(rtol * ref, noise) + atol:
-            return NewtonResult(x, it, history, roundoff_limited=rtol * ref < noise)
+        if it == 0:
+            converged = norm <= rtol * ref + atol
+        else:
+            # below the round-off level nothing is measurable: a stress-free start,
+            # or loads too small for the stiffness, converge there (and say so)
+            converged = norm <= max(rtol * ref, noise) + atol and \
+                (size_of is None or correction <= ctol)
+        if converged:
+            return NewtonResult(x, it, history, roundoff_limited=rtol * ref + atol < norm,
+                                correction=0.0 if it == 0 else correction)
         if it == max_iter:
             break
         try:
@@ -106,9 +132,12 @@ def newton(problem, x0, *, rtol=1e-10, atol=0.0, max_iter=25, line_search=False,
             cuts = 0
             while not (norm_of(r_try) <= (1.0 - 1e-4 * alpha) * norm):
                 cuts += 1
-                if cuts > max_cuts and norm <= STAGNATION * noise:
-                    # no descent left at the round-off floor: that is convergence
-                    return NewtonResult(x, it, history, roundoff_limited=True)
+                if cuts > max_cuts and norm <= STAGNATION * noise and \
+                        size_of is not None and size_of(dx) <= ctol:
+                    # no descent left at the round-off floor, and the full Newton
+                    # correction from here is small: that is convergence
+                    return NewtonResult(x, it, history, roundoff_limited=True,
+                                        correction=size_of(dx))
                 if cuts > max_cuts:
                     raise NewtonError("line_search", f"Newton{at}: line search found no "
                                       f"decrease of |r| = {norm:.3e} along the Newton step at "
@@ -118,6 +147,10 @@ def newton(problem, x0, *, rtol=1e-10, atol=0.0, max_iter=25, line_search=False,
                 r_try, J_try, ref_try = problem.evaluate(x_try, False)
             if J_try is None:
                 r_try, J_try, ref_try = problem.evaluate(x_try, True)
+        correction = size_of(alpha * dx) if size_of is not None else 0.0
         x, r, J, ref = x_try, r_try, J_try, ref_try
     raise NewtonError("max_iterations", f"Newton{at}: no convergence in {max_iter} iterations, "
-                      f"relative residual {history[-1]:.3e} > {rtol:.1e}", x, history)
+                      f"relative residual {history[-1]:.3e} > {rtol:.1e}"
+                      + (f" (last correction {correction:.1e} > {ctol:.0e})"
+                         if size_of is not None and history[-1] * ref <= max(rtol * ref, noise)
+                         else ""), x, history)

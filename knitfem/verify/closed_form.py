@@ -40,13 +40,6 @@ def elastica_tip_load(alpha):
     return np.sqrt(2.0 * np.sin(theta) / a), deflection, theta
 
 
-def euler_load(ei, length, ends="pinned"):
-    """Euler buckling load of a column: pi^2 EI / (K L)^2 with K = 1 for pinned
-    ends, 1/2 for clamped ends."""
-    k = {"pinned": 1.0, "clamped": 0.5}[ends]
-    return np.pi**2 * ei / (k * length) ** 2
-
-
 def greenhill_clamped():
     """Critical axial torque of a clamped-clamped shaft, M L / EI = 2 x, with x the
     first positive root of tan x = x (Greenhill 1883; Ziegler 1977)."""

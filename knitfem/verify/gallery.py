@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import beam_mesh, write_beam_state, write_series
+from ..io import beam_mesh, save_figure, write_beam_state, write_json, write_series
 from ..solve.stability import lowest_eigenvalues
 from . import cases, closed_form
 
@@ -40,8 +40,7 @@ def roll_up(out, plt):
     ax.set_ylabel("y / L")
     ax.legend(loc="upper right")
     fig.tight_layout()
-    fig.savefig(out / "a_rollup.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, out / "a_rollup.png")
     return {"tip_distance_from_root_over_L": float(np.linalg.norm(steps[-1].state.x[-1])),
             "newton_iterations_per_step": [s.iterations for s in steps]}, model, steps[-1].state
 
@@ -69,8 +68,7 @@ def column_buckling(out, plt):
     ax.set_title("b. Column buckling from the tangent (32 elements)")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(out / "b_column_buckling.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, out / "b_column_buckling.png")
     return result
 
 
@@ -92,8 +90,7 @@ def elastica(out, plt):
     ax.set_title("c. Cantilever elastica under a dead tip load")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(out / "c_elastica.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, out / "c_elastica.png")
     x, d, _ = closed_form.elastica_tip_load(10.0)
     return {"tip_error_over_L": float(np.hypot(tips[-1, 0] - x, -tips[-1, 1] - d)),
             "newton_iterations_per_step": [s.iterations for s in steps]}
@@ -123,12 +120,12 @@ def bend45(out, plt):
     ax.set_title("d. 45-degree bend (Bathe & Bolourchi 1979)")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out / "d_bend45.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, out / "d_bend45.png")
     return result, final
 
 
-def greenhill(out, plt):
+def greenhill():
+    """Critical axial torque of the clamped shaft against Greenhill's closed form."""
     crit = cases.critical_load(cases.greenhill_shaft(32), (8.0, 10.0))
     exact = closed_form.greenhill_clamped()
     return {"critical_torque_ML_over_EI": crit.load, "exact": exact,
@@ -150,7 +147,7 @@ def run(out, render=True, log=print):
     log("d. 45-degree bend ...")
     summary["d_bend45"], (bend_model, bend_state) = bend45(out, plt)
     log("e. Greenhill ...")
-    summary["e_greenhill"] = greenhill(out, plt)
+    summary["e_greenhill"] = greenhill()
     if render:
         from ..viz.render import render_rods
         log("rendering ...")
@@ -160,5 +157,33 @@ def run(out, render=True, log=print):
                     scalars=None,
                     title="end moment 2 pi EI/L: a full circle", view="xy", camera_up=(0, 1, 0))
     summary["elapsed_s"] = time.perf_counter() - t0
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_json(out / "summary.json", summary)
     return summary
+
+
+GALLERY_OUTPUTS = ("a_rollup.png", "b_column_buckling.png", "c_elastica.png", "d_bend45.png",
+                   "bend45_F600.png", "bend45_F600.vtu", "rollup.png", "rollup/rollup.pvd",
+                   "rollup/rollup_*.vtu", "summary.json")
+
+
+def add_parser(subparsers):
+    """Register ``gallery`` on the CLI's sub-parsers; returns the parser."""
+    from ..cli import add_command
+    from ..options import OptionSet
+    p = add_command(subparsers, "gallery", _run_command, OptionSet(), GALLERY_OUTPUTS,
+                    help="beam verification gallery: plots, .vtu, render")
+    p.add_argument("--out", default="studies/results/gallery", help="output folder")
+    p.add_argument("--no-render", action="store_true", help="skip the pyvista renders")
+    p.add_argument("--quiet", action="store_true")
+    return p
+
+
+def _run_command(args):
+    from ..cli import run_folder
+    with run_folder(args):
+        summary = run(args.out, render=not args.no_render,
+                      log=(lambda *a: None) if args.quiet else print)
+    if not args.quiet:
+        print(json.dumps(summary, indent=2))
+        print(f"wrote {args.out}")
+    return 0

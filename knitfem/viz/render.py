@@ -40,6 +40,10 @@ def render_rods(path, mesh, radius, *, scalars="curvature", view="iso",
     plotter.camera.zoom(zoom)
     if title:
         plotter.add_text(title, font_size=12, color="black")
-    plotter.screenshot(str(path))
-    plotter.close()
+    from ..io.atomic import atomic_path
+    try:
+        with atomic_path(path) as tmp:
+            plotter.screenshot(str(tmp))
+    finally:
+        plotter.close()
     return path

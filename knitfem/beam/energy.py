@@ -1,0 +1,101 @@
+"""A beam model's total potential at a fixed load factor, for energy minimisation.
+
+The protocol of :mod:`knitfem.solve.minimize`: energy, gradient (= the
+residual of :class:`knitfem.beam.static.StaticProblem` on the free dofs),
+the exact symmetric Hessian and a positive semi-definite model of it built
+from the PSD projections of every element, contact and friction block and
+tie (:mod:`knitfem.solve.psd`).  Dead nodal forces and gravity enter the
+potential as -lam f.(x - X); nodal moments about fixed axes have no potential
+for large rotations and are refused.
+
+``step_limit`` caps every step so that no node moves more than ``step`` (a
+length, default half the smallest yarn radius) or turns more than ``turn``
+radians: two yarns then approach by at most one radius per step, less than
+the 2r + gap they would have to cross to tunnel through each other, and the
+energy line search rejects steps that push them deep into each other.
+"""
+import numpy as np
+
+from ..solve.psd import psd_project
+from .assembly import DOFS_PER_NODE, block_matrix
+from .element import element_forces
+
+
+class EnergyProblem:
+    """Total potential of ``model`` at load factor ``lam`` on its free dofs."""
+
+    def __init__(self, model, lam=1.0, *, step=None, turn=0.5):
+        model.check()
+        f_ext = model.external_forces().reshape(-1, DOFS_PER_NODE)
+        if np.any(f_ext[:, 3:] != 0):
+            raise ValueError("energy minimisation needs conservative loads: nodal moments "
+                             "about fixed axes have no potential (use forces or gravity)")
+        self.model, self.lam = model, float(lam)
+        self.f_ext = f_ext.ravel()
+        self.X = model.assembly.initial_positions()
+        self.free = ~model.fixed
+        self.weight = model.residual_weights()[self.free]
+        self.ref = model.force_scale(lam)
+        radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
+        self.step = float(step) if step is not None else \
+            0.5 * (min(radii) if radii else 0.05 * model.length_scale())
+        self.turn = float(turn)
+
+    def evaluate(self, state, hessian=True):
+        """(E, g, H, H_psd): H CSR on the free dofs and H_psd a function returning
+        its PSD model (built only when asked: the projections cost more than
+        the rest of an iteration); both None without ``hessian``."""
+        model, asm = self.model, self.model.assembly
+        a, b = asm.elements
+        energy, res, Ke = element_forces(state.x[a], state.x[b], state.q[a], state.q[b], asm.h,
+                                         asm.gamma0, asm.kappa0, asm.CN, asm.CM, hessian)
+        E = float(energy.sum())
+        f = np.bincount(asm.element_dofs.T.ravel(), weights=res.ravel(), minlength=asm.n_dofs)
+        H = None
+        blocks = []                 # (dofs, matrices) for the PSD model
+        if hessian:
+            H = asm.scatter(0.5 * (Ke + np.swapaxes(Ke, 1, 2)), self.free)
+        groups = []
+        if model.tie_model is not None:
+            Ep, fe, Kb = model.tie_model.element_forces(state.x, hessian)
+            E += float(Ep.sum())
+            groups.append((model.tie_model.dofs(), fe, Kb))
+        if model.contact_model is not None:
+            Ep, contact_groups = model.contact_model.blocks(state.x, state.q, hessian)
+            E += Ep
+            groups.extend(contact_groups)
+        for dofs, fe, Kb in groups:
+            f += np.bincount(dofs.ravel(), np.ravel(fe), minlength=asm.n_dofs)
+            if hessian and len(dofs):
+                H = H + block_matrix(dofs, 0.5 * (Kb + np.swapaxes(Kb, 1, 2)), asm.n_dofs,
+                                     self.free)
+                blocks.append((dofs, Kb))
+        u = state.x - self.X
+        E -= self.lam * float(self.f_ext.reshape(-1, DOFS_PER_NODE)[:, :3].ravel() @ u.ravel())
+        g = (f - self.lam * self.f_ext)[self.free]
+        if not hessian:
+            return E, g, None, None
+
+        def psd_model():
+            Hp = asm.scatter(psd_project(Ke), self.free)
+            for dofs, Kb in blocks:
+                Hp = Hp + block_matrix(dofs, psd_project(Kb), asm.n_dofs, self.free)
+            return Hp
+        return E, g, H, psd_model
+
+    def residual(self, g):
+        """Relative residual against the model's fixed force scale."""
+        return float(np.linalg.norm(g * self.weight) / self.ref)
+
+    def retract(self, state, dx):
+        du = np.zeros(self.free.shape[0])
+        du[self.free] = dx
+        return self.model.retract(state, du)
+
+    def step_limit(self, state, dx):
+        du = np.zeros(self.free.shape[0])
+        du[self.free] = dx
+        du = du.reshape(-1, DOFS_PER_NODE)
+        move = float(np.max(np.linalg.norm(du[:, :3], axis=1), initial=0.0))
+        turn = float(np.max(np.linalg.norm(du[:, 3:], axis=1), initial=0.0))
+        return min(1.0, self.step / max(move, 1e-300), self.turn / max(turn, 1e-300))

@@ -1,0 +1,182 @@
+"""Fabric curling: relax a plain-knit swatch and classify its curl (paper Sec. 6).
+
+    knitfem curl --nw 10 --nc 35 [--alpha 0.2] [--w 4 --c 3 --radius 0.4]
+                 [--elements-per-loop 16] [--gj-over-ei X] [--ea-over-ei X]
+                 [--friction 0.3] [--bindoff-stiffness 10] [--out DIR]
+                 [--json FILE] [--resume] [--no-render] [--quiet]
+
+:func:`curl` builds the scene (:mod:`knitfem.scenes.fabric`), relaxes it
+(:mod:`knitfem.scenes.fabric_relax`), classifies the relaxed shape
+(:mod:`knitfem.analysis.curl`) and returns a JSON-ready dict.  With ``out`` it
+writes the relaxation path (one .vtu per increment + ``path.pvd``, contact
+data included), ``curl_<nw>x<nc>.vtu`` (the equilibrium), renders from three
+views and a checkpoint after every increment (``checkpoint.npz``, written
+atomically) from which ``resume`` continues after a kill.
+"""
+import json
+import os
+import time
+from dataclasses import fields
+from pathlib import Path
+
+import numpy as np
+
+from .fabric import FabricScene, Homotopy, build
+from .fabric_relax import FabricRelaxationError, relax_fabric
+
+VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
+
+
+def _save_checkpoint(path, scene, state, lam, dlam, increments, contact):
+    """Atomically write the relaxation's state after an increment."""
+    data = {"x": state.x, "q": state.q, "lam": lam, "dlam": dlam,
+            "scene": json.dumps(scene.as_dict(), sort_keys=True),
+            "increments": np.array([[i.lam, i.iterations, i.residual, i.energy, i.min_gap,
+                                     i.seconds] for i in increments])}
+    if contact is not None and contact.anchors is not None:
+        for name, value in contact.anchors._asdict().items():
+            data["anchor_" + name] = value
+        data["anchor_q"] = contact.anchor_q
+    tmp = path.with_suffix(".tmp.npz")
+    np.savez(tmp, **data)
+    os.replace(tmp, path)
+
+
+def _load_checkpoint(path, scene, model):
+    """(state, lam, dlam, increments) from a checkpoint of the same scene, or None."""
+    from ..beam.model import BeamState
+    from ..contact.friction import Anchors
+    from .fabric_relax import Increment
+    if not path.exists():
+        return None
+    data = np.load(path)
+    if str(data["scene"]) != json.dumps(scene.as_dict(), sort_keys=True):
+        raise ValueError(f"--resume: {path} holds a run with other parameters; remove it or "
+                         "give the same options")
+    contact = model.contact_model
+    if "anchor_key" in data.files:
+        contact.anchors = Anchors(*(data["anchor_" + f] for f in Anchors._fields))
+        contact.anchor_q = data["anchor_q"]
+    increments = [Increment(float(r[0]), int(r[1]), *map(float, r[2:]))
+                  for r in data["increments"]]
+    return BeamState(data["x"], data["q"]), float(data["lam"]), float(data["dlam"]), increments
+
+
+def lowest_scaled_eigenvalue(H):
+    """Lowest eigenvalue of the tangent scaled by its diagonal, D^-1/2 H D^-1/2
+    (dimensionless: forces and moments mixed; > 0 exactly when H is positive
+    definite, by congruence)."""
+    from scipy import sparse
+    from ..solve.stability import lowest_eigenvalues
+    d = np.sqrt(np.maximum(np.abs(H.diagonal()), 1e-300))
+    S = sparse.diags(1.0 / d) @ H @ sparse.diags(1.0 / d)
+    return float(lowest_eigenvalues(S, 1)[0])
+
+
+def curl(scene, *, out=None, render=True, progress=True, resume=False):
+    """Relax the :class:`FabricScene` ``scene`` and classify its curl; returns the
+    summary dict (see the README's fabric section for the keys)."""
+    from ..analysis.curl import swatch_curl
+    t0 = time.perf_counter()
+    model, swatch, info = build(scene)
+    homotopy = Homotopy(model, scene.alpha)
+    out = Path(out) if out is not None else None
+    checkpoint_path = out / "checkpoint.npz" if out is not None else None
+    start = None
+    if out is not None:
+        (out / "path").mkdir(parents=True, exist_ok=True)
+        if resume:
+            start = _load_checkpoint(checkpoint_path, scene, model)
+        elif checkpoint_path.exists():
+            checkpoint_path.unlink()
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=1000, desc=f"curl {scene.nw}x{scene.nc}", unit="", leave=False,
+                   bar_format="{desc} {percentage:3.0f}% |{bar}| {elapsed} {postfix}")
+
+    def on_step(lam, it, E, res):
+        if bar is not None:
+            bar.n = int(1000 * lam)
+            bar.set_postfix_str(f"lam={lam:.3f} it={it} res={res:.1e}", refresh=True)
+
+    frames = []
+
+    def on_increment(state, lam, dlam, increments):
+        if out is None:
+            return
+        from ..io import write_beam_state
+        frames.append((write_beam_state(out / "path" / f"step_{len(increments):03d}.vtu",
+                                        model, state), lam))
+        _save_checkpoint(checkpoint_path, scene, state, lam, dlam, increments,
+                         model.contact_model)
+
+    kwargs = {}
+    if start is not None:
+        state, lam, dlam, done = start
+        kwargs = dict(state=state, lam=lam, dlam=dlam)
+        homotopy.apply(lam)
+    else:
+        done = []
+    failure = None
+    try:
+        eq = relax_fabric(model, homotopy, progress=on_step, checkpoint=on_increment, **kwargs)
+    except FabricRelaxationError as err:
+        failure = err
+    finally:
+        if bar is not None:
+            bar.close()
+    if failure is not None:
+        from .fabric_relax import equilibrium
+        eq = equilibrium(model, failure.state, False, failure.increments)
+    eq.increments = done + eq.increments
+    shape = swatch_curl(eq.state.x, swatch)
+    from ..beam.energy import EnergyProblem
+    H = EnergyProblem(model, 1.0).evaluate(eq.state, True)[2]
+    summary = {
+        "nw": scene.nw, "nc": scene.nc, "model": "beam", "alpha": scene.alpha,
+        "curl": shape.curl, "edges_touch": bool(shape.edges_touch),
+        "roll_deg": {k: float(v) for k, v in shape.roll_deg.items()},
+        "curvature_x": shape.curvature_x, "curvature_y": shape.curvature_y,
+        "height_over_width": shape.height_over_width, "height": shape.height,
+        "loop_aspect": shape.loop_aspect,
+        "converged": bool(eq.converged), "residual": eq.residual, "stable": bool(eq.stable),
+        "negative_eigenvalues": eq.negative_eigenvalues,
+        "lowest_eigenvalue": lowest_scaled_eigenvalue(H),
+        "max_penetration_over_d": eq.max_penetration / (2.0 * scene.radius),
+        "reaction_over_force_scale": eq.reaction,
+        "dofs": info["free_dofs"], "iterations": eq.iterations,
+        "increments": len(eq.increments), "elapsed_s": time.perf_counter() - t0,
+        "scene": scene.as_dict(), "start_gap_over_d": info["start_gap_over_d"],
+        "geometry_inflation": info["inflation"],
+        "error": None if failure is None else str(failure),
+    }
+    if out is not None:
+        _write_outputs(out, model, eq, summary, frames, render)
+    return summary
+
+
+def _write_outputs(out, model, eq, summary, frames, render):
+    from ..io import write_beam_state, write_series
+    name = f"curl_{summary['nw']}x{summary['nc']}"
+    write_beam_state(out / f"{name}.vtu", model, eq.state)
+    if frames:
+        write_series(out / "path" / "path.pvd", [f for f, _ in frames], [t for _, t in frames])
+    if render:
+        from ..io import beam_mesh
+        from ..viz.render import render_rods
+        mesh = beam_mesh(model, eq.state)
+        radius = min(r.section.radius for r in model.rods)
+        for view, direction in VIEWS.items():
+            render_rods(out / f"{name}_{view}.png", mesh, radius, scalars="curvature",
+                        view=direction, title=f"{summary['nw']} x {summary['nc']}: "
+                        f"{summary['curl']} curl ({view})",
+                        camera_up=(0, 1, 0) if view == "front" else (0, 0, 1))
+    (out / f"{name}.json").write_text(json.dumps(summary, indent=2))
+
+
+def scene_from_options(args):
+    """A :class:`FabricScene` from parsed CLI options (None = the default)."""
+    names = {f.name for f in fields(FabricScene)}
+    given = {k: v for k, v in vars(args).items() if k in names and v is not None}
+    return FabricScene(**given)

@@ -1,0 +1,117 @@
+"""``knitfem curl``: its options, their checks and cost estimate, and the run.
+
+    knitfem curl --nw 10 --nc 35 [--model beam|bspline] [--alpha 0.2]
+                 [--w 4 --c 3 --radius 0.4] [--elements-per-loop 16]
+                 [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
+                 [--bindoff-stiffness 10] [--out DIR] [--json FILE] [--resume]
+                 [--no-render] [--quiet] [--no-limits]
+
+Cost model (measured on the loaded 2-core machine: a 5 x 5 swatch, 3 012
+unknowns, about 1 700 minimisation iterations of ~0.1 s): ``S_PER_DOF_ITERATION
+x unknowns x ITERATIONS_PER_LOOP x loops^0.25`` seconds; refused above the
+library's time limit unless ``--no-limits``.
+"""
+import math
+
+from ..options import Budget, Check, Integer, OptionSet, Real, fmt, refuse
+
+S_PER_DOF_ITERATION = 3e-5        # s per unknown per minimisation iteration (5 x 5: 0.1 s / 3 k)
+ITERATIONS = 1700                 # minimisation iterations of a 5 x 5 relaxation
+
+
+def unknowns(v):
+    """Beam unknowns: 6 per node, elements_per_loop nodes per loop, plus turns and bind-off."""
+    return 6 * v.elements_per_loop * (v.nw * v.nc + 2 * v.nw + v.nc)
+
+
+def seconds(v):
+    return S_PER_DOF_ITERATION * unknowns(v) * ITERATIONS * (v.nw * v.nc / 25.0) ** 0.25
+
+
+def memory(v):
+    # sparse factor: ~60 nonzeros per unknown per sqrt(loops) (measured fill of the
+    # knit tangents: 1.5e7 for 1.9e5 unknowns at 55 x 35)
+    return 8.0 * 60.0 * unknowns(v) * math.sqrt(v.nw * v.nc) * 2
+
+
+def _yarn_fits(v):
+    if not v.radius < v.w / 8.0:
+        refuse("--radius", f"must be below --w/8 = {fmt(v.w / 8.0)} (two legs and a head side "
+               "by side in one wale)", v.radius)
+    lo, hi = max(5.0 * v.radius, 1.4 * math.sqrt(v.radius * v.w)), \
+        min(0.4 * v.w * v.w / v.radius, 4.0 * v.w)
+    if not lo <= v.c <= hi:
+        refuse("--c", f"must be in [{fmt(lo)}, {fmt(hi)}] for --w {fmt(v.w)} and --radius "
+               f"{fmt(v.radius)} (tighter bends than the yarn)", v.c)
+
+
+_NO_TWIST = ("model", "beam", "the bspline model has no torsional stiffness (no twist energy)")
+
+OPTIONS = OptionSet(
+    Integer("--nw", 10, "[2, 200]", help="wales N_w"),
+    Integer("--nc", 35, "[2, 200]", help="courses N_c"),
+    Real("--alpha", 0.2, "[0, 0.5]", help="pre-stretch ratio: rest length (1 - alpha) x knitted"),
+    Real("--w", 4.0, "(0, 1000]", help="wale length (loop width), mm"),
+    Real("--c", 3.0, "(0, 1000]", help="course length (loop height), mm"),
+    Real("--radius", 0.4, "(0, 1000]", help="yarn radius, mm"),
+    Integer("--elements-per-loop", 16, "[8, 64]", help="beam elements per loop"),
+    Real("--gj-over-ei", 2.0 / 3.0, "[1e-06, 100]", when=_NO_TWIST,
+         help="torsional over bending stiffness"),
+    Real("--ea-over-ei", 800.0, "[1, 1e+06]", help="stretching over bending stiffness, 1/mm^2"),
+    Real("--friction", 0.3, "[0, 2]", help="Coulomb friction coefficient between yarns"),
+    Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
+         help="bind-off stiffness relative to the yarn's"),
+    Check(_yarn_fits),
+    Budget("memory", memory, ("--nw", "--nc", "--elements-per-loop")),
+    Budget("run time", seconds, ("--nw", "--nc", "--elements-per-loop")),
+)
+
+
+def outputs(args):
+    """The files of a run (stale ones are removed first); a resumed run keeps its
+    checkpoint and the relaxation path written so far."""
+    name = f"curl_{args.nw}x{args.nc}"
+    final = (f"{name}.vtu", f"{name}.json", f"{name}_*.png")
+    return final if args.resume else final + ("checkpoint.npz", "path/step_*.vtu",
+                                              "path/path.pvd")
+
+
+def add_parser(subparsers):
+    from ..cli import add_command, add_output_options
+    p = add_command(
+        subparsers, "curl", run, OPTIONS, outputs, remove_listed=False,
+        help="fabric curling: relax a plain-knit swatch and classify its curl (paper Fig. 5c)",
+        description="Relax an N_w x N_c plain-knit swatch (beams, contact with friction, tails "
+        "tied into the bind-off, pre-stretch) to a static equilibrium and classify its curl: "
+        "side, double, top_bottom or flat.")
+    p.add_argument("--model", choices=("beam", "bspline"), default="beam",
+                   help="beam: Simo-Reissner rods (default); bspline: the paper's own "
+                   "yarn-level model")
+    p.add_argument("--resume", action="store_true",
+                   help="continue from the checkpoint in --out (same options)")
+    return add_output_options(p, "folder: relaxation path, final .vtu, renders, checkpoint")
+
+
+def run(args):
+    """Run the validated ``curl`` command; exit code 0, or 3 when the relaxation failed
+    (the summary, with its error, is still written)."""
+    from ..cli import run_folder, write_summary
+    if args.resume and not args.out:
+        refuse("--resume", "needs --out (the folder holding the checkpoint)", True)
+    with run_folder(args):
+        if args.model == "bspline":
+            from .curl_bspline import bspline_curl_from_options
+            summary = bspline_curl_from_options(args)
+        else:
+            from .curl import curl
+            from .fabric import FabricScene
+            scene = FabricScene(args.nw, args.nc, w=args.w, c=args.c, radius=args.radius,
+                                elements_per_loop=args.elements_per_loop, alpha=args.alpha,
+                                ea_over_ei=args.ea_over_ei, gj_over_ei=args.gj_over_ei,
+                                bindoff_stiffness=args.bindoff_stiffness,
+                                friction=args.friction)
+            summary = curl(scene, out=args.out, render=not args.no_render,
+                           progress=not args.quiet, resume=args.resume)
+        write_summary(args, summary, f"{summary['curl']} curl, converged "
+                      f"{summary['converged']}, stable {summary['stable']}; wrote {args.json}")
+    return 0 if summary.get("error") is None else 3

@@ -1,0 +1,168 @@
+"""A plain-knit swatch as a beam scene: every yarn a Simo-Reissner rod, penalty
+contact with regularised Coulomb friction, the yarn's tails tied into the
+bind-off, free-floating (paper Sec. 6, Fig. 5).
+
+Units: mm and N (EI in N mm^2).  Only ratios shape the result: scaling EI,
+GJ, EA, the penalty and the ties together leaves every equilibrium unchanged
+(tested), so the yarn is given by its slenderness and the stiffness ratios.
+
+The scene, and why each choice (measured on 5 x 5 and 7 x 7 swatches while
+building it; see README "Fabric curling"):
+
+* **Yarn.**  Naturally straight (the paper's rod).  Bending-to-stretching
+  ratio EA/EI = ``ea_over_ei`` (default 800 /mm^2 for r = 0.4 mm: a solid
+  rod has 4/r^2 = 25 /mm^2; a twisted yarn is 1-5 % as stiff in bending
+  relative to stretching, the range where the paper's model stays a fabric).
+  GJ/EI = ``gj_over_ei`` (2/3: nu = 0.5).
+* **Pre-stretch** alpha: the yarn's rest length is (1 - alpha) x its knitted
+  length (the knitted shape is the yarn stretched by the knitting weight).
+* **Bind-off**: the helices keep their helix as natural shape ("helically
+  bent rods"), ``bindoff_stiffness`` times the yarn's stiffness (the paper
+  notes the bind-off's stiffness matters; with 1x they uncoil and the edge
+  loops slide off).
+* **Tails tied in**: the knit yarn's two ends and each helix's two ends are
+  tied (stiff springs at the layout distance) to the nearest point of the
+  other yarn (:func:`knitfem.geometry.knit.swatch_ties`), as a knitter weaves
+  the tails in: a free tail lets the pre-stretch drain out.
+* **Friction** mu (default 0.3, cotton on cotton): without it a frictionless
+  knit of naturally straight yarn is not held together by anything but its
+  topology, and it collapses (the courses slide together, then it tangles:
+  measured with and without pre-stretch, with ties and stiff bind-off).
+* **Contact**: penalty ``penalty`` EI/r^4 (1000: the pre-stretch tension
+  presses the yarns together harder than the default's design load), skin
+  g0 = 5 % of d.  The geometry is knitted with an inflated radius so that no
+  chord pair starts inside the skin: with this penalty, a pair half-way into
+  the skin already carries a line load of ~15 EI/r^3, far from the stress-free
+  start the homotopy needs.
+* **Contact quadrature**: 12 Gauss points per yarn diameter along each slave
+  segment (the library's default is 6): as yarns slide, the contact line
+  integral ripples with the Gauss point spacing; with 6 that ripple stalled
+  the minimisation of a 5 x 5 swatch at a residual of 2e-3 (line-search steps
+  of 1e-3 along a sliding mode), with 12 it relaxes to 1e-8.
+* **Rigid motion**: one node held (statically determinate: its reactions
+  vanish at equilibrium and are reported).
+"""
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..beam import BeamModel, Rod, Section
+from ..geometry.knit import plain_knit_swatch, swatch_ties
+
+DEFAULT_EA_OVER_EI = 800.0      # 1/mm^2: 3 % of a solid rod's 4/r^2 at r = 0.4 mm
+
+
+@dataclass(frozen=True)
+class FabricScene:
+    """Parameters of a swatch scene (lengths in mm)."""
+    nw: int
+    nc: int
+    w: float = 4.0
+    c: float = 3.0
+    radius: float = 0.4
+    elements_per_loop: int = 16
+    alpha: float = 0.2
+    ea_over_ei: float = DEFAULT_EA_OVER_EI
+    gj_over_ei: float = 2.0 / 3.0
+    bindoff_stiffness: float = 10.0
+    friction: float = 0.3
+    penalty: float = 1000.0
+    regularisation: float = 0.05
+    per_diameter: int = 12
+    ties: bool = True
+    EI: float = 1.0                 # N mm^2 (nominal: only ratios matter)
+
+    def as_dict(self):
+        return asdict(self)
+
+
+def yarn_section(scene, factor=1.0):
+    """Section of the knit yarn (``factor`` scales every stiffness)."""
+    EI = scene.EI * factor
+    EA = scene.ea_over_ei * EI
+    # shear stiffness of a nu = 0.5 solid (its value hardly matters: shear strains stay tiny)
+    return Section(EA=EA, GA2=EA / 3.0, GA3=EA / 3.0, GJ=scene.gj_over_ei * EI, EI2=EI, EI3=EI,
+                   radius=scene.radius)
+
+
+def knit_with_clearance(scene, gap, max_tries=8):
+    """The swatch knitted with an inflated radius r (1 + delta) so that, seen by
+    contact (chords and master curves at this discretisation), no two yarns
+    start closer than 2r + ``gap``; returns (swatch, delta, min gap found)."""
+    from ..contact import PenaltyLaw, SegmentContact
+    delta = 0.0
+    for _ in range(max_tries):
+        swatch = plain_knit_swatch(scene.nw, scene.nc, scene.w, scene.c,
+                                   scene.radius * (1.0 + delta),
+                                   points_per_loop=scene.elements_per_loop)
+        x0 = np.concatenate([y.points[:-1] for y in swatch.yarns])
+        x1 = np.concatenate([y.points[1:] for y in swatch.yarns])
+        rod = np.concatenate([np.full(len(y.points) - 1, k) for k, y in enumerate(swatch.yarns)])
+        s_mid = np.concatenate([np.cumsum(np.linalg.norm(np.diff(y.points, axis=0), axis=1))
+                                for y in swatch.yarns])
+        probe = SegmentContact(PenaltyLaw(1.0, 4.0 * scene.radius), np.full(len(x0), scene.radius),
+                               rod, s_mid)
+        min_gap = probe.evaluate(x0, x1, tangent=False)[-1].min_gap
+        if min_gap >= gap:
+            return swatch, delta, float(min_gap)
+        delta += 0.02
+        if scene.radius * (1.0 + delta) >= scene.w / 8.0:
+            break
+    raise ValueError(f"radius {scene.radius:g} is too thick for w = {scene.w:g} at "
+                     f"{scene.elements_per_loop} elements per loop: no knitted geometry keeps "
+                     f"the yarns {gap:.3g} apart (valid: radius well below w/8 = "
+                     f"{scene.w / 8:g}, or more --elements-per-loop)")
+
+
+def build(scene):
+    """(model, swatch, info): the beam model of the scene with its natural
+    strains at the knitted shape (the homotopy's start, see :class:`Homotopy`)."""
+    g0 = scene.regularisation * 2.0 * scene.radius
+    swatch, delta, min_gap = knit_with_clearance(scene, 1.02 * g0)
+    knit = yarn_section(scene)
+    bind = yarn_section(scene, scene.bindoff_stiffness)
+    model = BeamModel()
+    for k, yarn in enumerate(swatch.yarns):
+        section = knit if k == 0 else bind
+        model.add_rod(Rod.from_centerline(yarn.points, section, tangents=yarn.tangents,
+                                          natural="shape", name="knit" if k == 0 else
+                                          ("bindoff_bottom" if k == 1 else "bindoff_top")))
+    if scene.ties:
+        for ya, pa, yb, pb in swatch_ties(swatch):
+            model.tie(ya, pa, yb, pb)
+    model.contact(factor=scene.penalty, regularisation=scene.regularisation,
+                  per_diameter=scene.per_diameter, friction=scene.friction)
+    model.set_length_scale(swatch.loop.w)
+    held = model.free_body()
+    info = {"inflation": delta, "start_gap_over_d": min_gap / (2.0 * scene.radius),
+            "held_node": held, "dofs": 6 * model.assembly.n_nodes,
+            "free_dofs": int(np.count_nonzero(~model.fixed)),
+            "loop_length": swatch.loop.length, "length_scale": swatch.loop.w}
+    return model, swatch, info
+
+
+class Homotopy:
+    """Natural strains of the knit yarn from its knitted shape (lam = 0, stress
+    free) to straight with rest length (1 - alpha) x knitted (lam = 1),
+    linearly; the bind-off keeps its helix.  Strains are per reference
+    (knitted) length: the rest-length change enters as the natural axial
+    strain 1 - alpha and all stiffnesses per unit rest length."""
+
+    def __init__(self, model, alpha):
+        asm = model.assembly
+        self.assembly = asm
+        self.knit = asm.rod_of_element == 0
+        self.gamma_shape, self.kappa_shape = asm.gamma0.copy(), asm.kappa0.copy()
+        self.CN, self.CM = asm.CN.copy(), asm.CM.copy()
+        self.alpha = float(alpha)
+
+    def apply(self, lam):
+        asm, k = self.assembly, self.knit
+        straight = np.zeros_like(self.gamma_shape[k])
+        straight[:, 0] = 1.0 - self.alpha
+        asm.gamma0[k] = (1.0 - lam) * self.gamma_shape[k] + lam * straight
+        asm.kappa0[k] = (1.0 - lam) * self.kappa_shape[k]
+        # energy per rest length: W = h0 C/2 (strain/h0 ...)^2 = h C/(2 s) (...)^2, s = h0/h
+        s = 1.0 - lam * self.alpha
+        asm.CN[k] = self.CN[k] / s
+        asm.CM[k] = self.CM[k] / s

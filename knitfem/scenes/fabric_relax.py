@@ -1,0 +1,183 @@
+"""Relax a knitted swatch to a static equilibrium: the protocol.
+
+From the knitted shape (stress-free at homotopy lam = 0) to the naturally
+straight, pre-stretched yarn (lam = 1) in quasi-static increments:
+
+1. each increment sets the natural strains at lam (:class:`Homotopy`) and
+   minimises the total potential (elastic + contact + ties + friction) by
+   damped, step-limited modified Newton (:mod:`knitfem.solve.minimize`,
+   :mod:`knitfem.beam.energy`): every step lowers the energy and no node moves
+   more than half a yarn radius, so no yarn can pass through another;
+2. friction is *lagged*: its anchors (normal forces, frames, the set of
+   touching points) are taken at the start of a round and kept while the
+   round minimises; rounds repeat (anchors updated, each point's slip carried
+   over, :mod:`knitfem.contact.friction`) until a round ends converged;
+   contacts that formed during a round get their friction in the next;
+3. the increment grows after easy increments and is halved (from the last
+   equilibrium) when ``max_rounds`` rounds do not converge;
+4. at lam = 1 rounds go on until a converged round moves no node more than
+   ``creep`` (default 1e-3 r: the lagged normal forces have settled), or
+   ``2 max_rounds`` rounds, the last of which converged.
+
+The answer is the last round's state: a static equilibrium of the undamped
+forces (elastic, contact, ties and friction within its Coulomb cone),
+relative residual <= ``tol`` against the model's fixed force scale, its
+stability the inertia of its symmetric tangent (one sparse LDL^T), the
+reaction at the held node ~0.  Nothing is returned as converged that is not;
+a failed run raises :class:`FabricRelaxationError` keeping the last
+equilibrium and the path.
+"""
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..beam.energy import EnergyProblem
+from ..solve.minimize import RelaxationError, minimize
+from ..solve.stability import inertia
+
+
+class FabricRelaxationError(RuntimeError):
+    """The relaxation failed; ``state`` is the last equilibrium (at ``lam``),
+    ``increments`` the path so far."""
+
+    def __init__(self, message, state, lam, increments):
+        super().__init__(message)
+        self.state, self.lam, self.increments = state, lam, list(increments)
+
+    def __reduce__(self):
+        return (type(self), (str(self), self.state, self.lam, self.increments))
+
+
+@dataclass
+class Increment:
+    lam: float
+    iterations: int
+    residual: float
+    energy: float
+    min_gap: float          # smallest contact gap seen at the increment's states
+    seconds: float
+
+
+@dataclass
+class FabricEquilibrium:
+    state: object
+    converged: bool
+    residual: float
+    stable: bool
+    negative_eigenvalues: int
+    reaction: float          # |reaction| at the held node over the force scale
+    iterations: int
+    increments: list = field(default_factory=list)
+    max_penetration: float = 0.0    # largest penetration along the path (length)
+
+
+def _gap_watch(model, sink):
+    """A minimize progress hook recording the smallest contact gap."""
+    def hook(it, E, res):
+        report = model.contact_model.report if model.contact_model is not None else None
+        if report is not None:
+            sink[0] = min(sink[0], report.min_gap)
+    return hook
+
+
+def _round(model, state, lam, tol, iterations, progress=None):
+    """One friction round: re-anchor (carrying slips) and minimise."""
+    contact = model.contact_model
+    if contact is not None:
+        contact.anchor_friction(state.x, state.q)
+    problem = EnergyProblem(model, 1.0)
+    gap = [np.inf]
+    hook = _gap_watch(model, gap)
+
+    def both(it, E, res):
+        hook(it, E, res)
+        if progress is not None:
+            progress(lam, it, E, res)
+    result = minimize(problem, state, tol=tol, max_iter=iterations, progress=both,
+                      raise_on_failure=False)
+    return result, gap[0]
+
+
+def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=None):
+    """Friction rounds at lam until one converges after at least two (the
+    contacts made by the first need their friction) and moved no node more
+    than ``creep`` (the lagged normal forces have settled), or ``max_rounds``
+    rounds of which the last converged; returns (result, Increment) or
+    (None, reason)."""
+    t = time.perf_counter()
+    total, gap, result = 0, np.inf, None
+    for k in range(max_rounds):
+        try:
+            result, g = _round(model, state, lam, tol, iterations, progress)
+        except RelaxationError as err:
+            return None, f"round {k + 1} at lam = {lam:.4g}: {err}"
+        total += result.iterations
+        gap = min(gap, g)
+        moved = float(np.max(np.abs(result.state.x - state.x)))
+        state = result.state
+        if result.converged and k >= 1 and moved <= creep:
+            break
+    if result is None or not result.converged:
+        return None, (f"no converged friction round at lam = {lam:.4g} in {max_rounds} rounds "
+                      f"(residual {result.residual:.2e})")
+    return result, Increment(lam, total, result.residual, result.energy, gap,
+                             time.perf_counter() - t)
+
+
+def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-6, dlam=0.1,
+                 dlam_max=0.25, dlam_min=1e-3, iterations=25, max_rounds=8, creep=None,
+                 progress=None, checkpoint=None):
+    """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
+    to lam = 1 (see the module docstring).
+
+    path_tol : relative residual of the increments on the way; tol : of the
+    last one (the answer).  iterations : per friction round.
+    progress(lam, iteration, E, residual) after every minimisation step;
+    checkpoint(state, lam, dlam, increments) after every increment (to
+    resume, pass its state and lam back).  Returns :class:`FabricEquilibrium`.
+    """
+    state = model.initial_state() if state is None else state
+    if creep is None:
+        radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
+        creep = 1e-3 * min(radii) if radii else 1e-6 * model.length_scale()
+    increments = []
+    lam = float(lam)
+    while lam < 1.0:
+        target = min(1.0, lam + dlam)
+        last = target == 1.0
+        homotopy.apply(target)
+        result, inc = _increment(model, state, target, tol if last else path_tol, iterations,
+                                 2 * max_rounds if last else max_rounds,
+                                 creep if last else np.inf, progress)
+        if result is None:
+            dlam *= 0.5
+            homotopy.apply(lam)
+            if dlam < dlam_min:
+                raise FabricRelaxationError(
+                    f"relaxation failed near homotopy lam = {lam + 2 * dlam:.4g} (increment "
+                    f"{2 * dlam:.2g} from the equilibrium at {lam:.4g}): {inc}", state, lam,
+                    increments)
+            continue
+        increments.append(inc)
+        state, lam = result.state, target
+        if inc.iterations <= 2 * iterations:
+            dlam = min(1.5 * dlam, dlam_max)
+        if checkpoint is not None:
+            checkpoint(state, lam, dlam, increments)
+    return equilibrium(model, state, True, increments)
+
+
+def equilibrium(model, state, converged, increments):
+    """The answer at ``state``: residual, stability, reactions (with the friction
+    anchors of the last increment in place)."""
+    problem = EnergyProblem(model, 1.0)
+    _, g, H, _ = problem.evaluate(state, True)
+    residual = problem.residual(g)
+    negative = inertia(H)[0]
+    _, f, _ = model.internal_forces(state, tangent=False)
+    reaction = float(np.linalg.norm((f * model.residual_weights())[model.fixed]) / problem.ref)
+    gaps = [inc.min_gap for inc in increments if np.isfinite(inc.min_gap)]
+    return FabricEquilibrium(state, bool(converged), residual, negative == 0, int(negative),
+                             reaction, int(sum(inc.iterations for inc in increments)),
+                             increments, max(0.0, -min(gaps, default=0.0)))

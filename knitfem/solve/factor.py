@@ -1,0 +1,142 @@
+"""Sparse symmetric factorisations with a fill-reducing order.
+
+``LDLt(A)``: A = P L D L^T P^T without pivoting (QDLDL, approximate minimum
+degree order).  It gives solves, the inertia of A (Sylvester's law: the signs
+of D are the signs of A's eigenvalues, counted) and log|det A|, at the cost of
+one sparse factorisation: that is how stability is decided at 1e5+ unknowns,
+never with a dense eigensolver.  Without pivoting a strongly indefinite matrix
+can lose accuracy; every factorisation checks its own solve on a probe vector
+and says so (``reliable``), and callers fall back where it is not.
+
+``Cholesky(A)``: for symmetric positive definite matrices (the modified Newton
+systems of energy minimisation).  CHOLMOD (scikit-sparse, supernodal, METIS
+order) when it is installed, else LDL^T; ``NotPositiveDefinite`` when A is not.
+Measured on a 55 x 35 plain-knit tangent (191 118 unknowns, one thread):
+CHOLMOD 1.5 s, QDLDL 6.8 s, SuperLU (MMD on A^T + A, symmetric mode) 5.3 s,
+SuperLU with its default COLAMD order 18.6 s.
+"""
+import numpy as np
+from scipy import sparse
+
+try:                                            # optional: the `cholmod` extra
+    from sksparse import cholmod as _cholmod
+except ImportError:                             # pragma: no cover - depends on the install
+    _cholmod = None
+
+import qdldl
+
+PROBE_TOL = 1e-12         # normwise backward error of the probe solve for a usable factorisation
+
+
+class NotPositiveDefinite(ArithmeticError):
+    """A Cholesky factorisation met a non-positive pivot."""
+
+
+def _with_diagonal(A):
+    """CSC copy of A with every diagonal entry stored (QDLDL needs them)."""
+    coo = sparse.coo_matrix(A, dtype=float)
+    idx = np.flatnonzero(coo.diagonal() == 0)
+    # COO -> CSC sums duplicates and keeps explicit zeros: the diagonal is stored
+    A = sparse.csc_matrix((np.concatenate([coo.data, np.zeros(idx.size)]),
+                           (np.concatenate([coo.row, idx]), np.concatenate([coo.col, idx]))),
+                          shape=coo.shape)
+    A.sort_indices()
+    return A
+
+
+def _probe(A, solve):
+    """Normwise backward error |A x - b| / (|A| |x| + |b|) (infinity norms) of a
+    solve with a fixed pseudo-random right-hand side: ~1e-16 for a stable
+    factorisation however ill-conditioned A is (stiff rods: 1e20), large where
+    the unpivoted elimination grew."""
+    b = np.cos(np.arange(A.shape[0]) * 1.618)
+    x = solve(b)
+    if not np.all(np.isfinite(x)):
+        return np.inf
+    norm_A = float(abs(A).sum(axis=1).max())
+    return float(np.abs(A @ x - b).max() / (norm_A * np.abs(x).max() + np.abs(b).max()))
+
+
+class LDLt:
+    """LDL^T of a symmetric sparse matrix (full storage), see the module docstring.
+
+    Attributes: ``d`` (n,) pivots, ``negative`` count of negative pivots,
+    ``zero`` count of pivots below ``tiny`` relative to the largest,
+    ``logdet`` log|det A|, ``reliable`` whether the probe solve met PROBE_TOL.
+    """
+
+    def __init__(self, A, *, tiny=1e-13):
+        A = _with_diagonal(A)
+        self.A = A
+        self.n = A.shape[0]
+        try:
+            self._solver = qdldl.Solver(A)
+        except (RuntimeError, ValueError) as err:         # structurally singular
+            raise np.linalg.LinAlgError(f"LDL^T factorisation failed: {err}") from None
+        d = np.asarray(self._solver.factors()[1])
+        self.d = d
+        scale = np.max(np.abs(d)) if d.size else 1.0
+        self.zero = int(np.count_nonzero(np.abs(d) <= tiny * scale))
+        self.negative = int(np.count_nonzero(d < 0))
+        with np.errstate(divide="ignore"):
+            self.logdet = float(np.sum(np.log(np.abs(d))))
+        exact = bool(np.all(np.isfinite(d)) and np.all(d != 0))
+        self.residual = _probe(A, self.solve) if exact else np.inf
+        self.reliable = bool(exact and self.residual <= PROBE_TOL)
+
+    def solve(self, b):
+        return np.asarray(self._solver.solve(np.asarray(b, dtype=float)))
+
+
+class Cholesky:
+    """A = L L^T of a symmetric positive definite sparse matrix (see module docstring).
+
+    ``backend`` is 'cholmod' or 'qdldl'.  Raises NotPositiveDefinite."""
+
+    def __init__(self, A, *, analysis=None):
+        A = sparse.csc_matrix(A, dtype=float)
+        if _cholmod is not None:
+            try:
+                if analysis is not None:
+                    self._factor = analysis.cholesky(A)
+                else:
+                    self._factor = _cholmod.cholesky(A, ordering_method="default")
+            except _cholmod.CholmodNotPositiveDefiniteError as err:
+                raise NotPositiveDefinite(str(err)) from None
+            self.backend = "cholmod"
+            self.solve = self._factor
+            return
+        ldl = LDLt(A)
+        if ldl.negative or ldl.zero:
+            raise NotPositiveDefinite(f"{ldl.negative} negative and {ldl.zero} zero pivots")
+        self.backend = "qdldl"
+        self.solve = ldl.solve
+
+
+def cholmod_available():
+    return _cholmod is not None
+
+
+def inertia(K):
+    """(negative eigenvalues of sym(K), log|det sym(K)|), from one sparse LDL^T.
+
+    Falls back to the diagonally scaled matrix, shifted by 1e-12 of its unit
+    diagonal, when a pivot vanishes or the solve is not backward stable (a
+    singular point: the count is then of eigenvalues below the shift), and
+    raises LinAlgError if even that is unreliable."""
+    S = sparse.csc_matrix(0.5 * (K + K.T))
+    f = LDLt(S)
+    if f.reliable:
+        return f.negative, f.logdet
+    # symmetric diagonal scaling is a congruence (same inertia) that evens out
+    # the pivots of stiff/soft rods; a shift of 1e-12 in those units counts a
+    # numerically zero eigenvalue as non-negative
+    diag = np.abs(S.diagonal())
+    diag = np.where(diag > 0, diag, max(float(diag.max(initial=0.0)), 1.0))
+    scale = sparse.diags(1.0 / np.sqrt(diag))
+    scaled = sparse.csc_matrix(scale @ S @ scale)
+    g = LDLt(scaled + 1e-12 * sparse.identity(S.shape[0], format="csc"))
+    if not g.reliable:
+        raise np.linalg.LinAlgError("inertia: the LDL^T factorisation of the tangent is "
+                                    f"unreliable (backward error {g.residual:.1e})")
+    return g.negative, g.logdet - float(np.sum(np.log(diag)))

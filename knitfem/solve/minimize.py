@@ -1,0 +1,147 @@
+"""Energy minimisation for relaxation far from equilibrium.
+
+Plain Newton from a knitted shape fails at once: the tangent is indefinite
+there and a Newton step throws yarns radii away.  This is a modified Newton
+method on the energy (a Levenberg-Marquardt / trust-region hybrid):
+
+    (H + mu D) dx = -g,     D = diag of the PSD model (Marquardt scaling),
+
+where H is the exact (symmetric) Hessian whenever H + mu D is positive
+definite and otherwise a positive semi-definite model of it (per-block
+projection, see :mod:`knitfem.solve.psd`); the step is capped by the
+problem's ``step_limit`` (no contact point moves far enough to tunnel
+through a yarn), then a backtracking line search on the energy (Armijo)
+accepts it.  mu shrinks after full steps and grows after cut or failed
+ones.  Every accepted step lowers the energy, so the result is a local
+minimum: a stable equilibrium (verified by the caller's final Newton solve).
+
+Problem protocol (nothing here knows about beams):
+
+``evaluate(x, hessian) -> (E, g, H, H_psd)``
+    energy, gradient (n,), sparse symmetric Hessian and a PSD model of it
+    (None, None when ``hessian`` is False).
+``retract(x, dx) -> x``; ``residual(g) -> float``, the convergence measure
+(a relative residual against a fixed scale); optional ``step_limit(x, dx) ->
+float`` in (0, 1], the largest fraction of dx that may be taken.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import sparse
+
+from .factor import Cholesky, NotPositiveDefinite
+
+MU_MIN, MU_MAX = 1e-10, 1e8
+
+
+class RelaxationError(RuntimeError):
+    """The minimisation stalled or ran out of iterations; ``state`` is the
+    lowest-energy state reached, ``history`` the iterations so far."""
+
+    def __init__(self, message, state, history):
+        super().__init__(message)
+        self.state = state
+        self.history = list(history)
+
+    def __reduce__(self):
+        return (type(self), (str(self), self.state, self.history))
+
+
+@dataclass
+class Relaxed:
+    state: object
+    energy: float
+    residual: float
+    iterations: int
+    converged: bool
+    history: list = field(default_factory=list)     # (E, residual, mu, t, hessian used)
+
+
+def _factor(H, D, mu):
+    return Cholesky(sparse.csc_matrix(H + sparse.diags(mu * D)))
+
+
+def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progress=None,
+             raise_on_failure=True):
+    """Minimise the problem's energy from ``x0`` until ``residual(g) <= tol``.
+
+    Returns :class:`Relaxed`; raises :class:`RelaxationError` (keeping the
+    state) when mu exceeds its bound (no descent left: a kink or a wrong
+    gradient) or after ``max_iter`` iterations, unless ``raise_on_failure`` is
+    False (then ``converged`` says so).  ``progress(iteration, E, residual)``
+    is called after every iteration.
+    """
+    x = x0
+    E, g, H, Hp = problem.evaluate(x, True)
+    history = []
+    exact_failed = 0
+    limit = getattr(problem, "step_limit", None)
+    for it in range(max_iter + 1):
+        res = float(problem.residual(g))
+        if not np.isfinite(E) or not np.isfinite(res):
+            raise RelaxationError(f"relaxation: energy or residual not finite at iteration {it}",
+                                  x, history)
+        if res <= tol:
+            return Relaxed(x, E, res, it, True, history)
+        if it == max_iter:
+            break
+        D = np.abs(H.diagonal())
+        D = np.maximum(D, 1e-12 * max(D.max(), 1e-300))
+        used = None
+        # the exact Hessian first (fast local convergence); after it failed,
+        # try it again only every few iterations
+        if exact_failed == 0 or it % 5 == 0:
+            try:
+                chol, used = _factor(H, D, mu), "exact"
+                exact_failed = 0
+            except NotPositiveDefinite:
+                exact_failed += 1
+        model = None
+        while used is None:
+            model = Hp() if model is None else model
+            try:
+                chol, used = _factor(model, D, mu), "psd"
+            except NotPositiveDefinite:
+                mu = min(10.0 * mu, MU_MAX)
+                if mu >= MU_MAX:
+                    raise RelaxationError("relaxation: no positive definite model of the "
+                                          f"Hessian at iteration {it}", x, history) from None
+        dx = -chol.solve(g)
+        if limit is not None:
+            dx = dx * min(1.0, float(limit(x, dx)))
+        slope = float(g @ dx)
+        t, accepted = 1.0, False
+        # near a minimum the energy's decrease falls below its round-off
+        # (~1e-15 |E|, summed over many terms): there a step that does not
+        # raise E beyond that noise is accepted if it lowers the residual
+        noise = 1e-12 * max(abs(E), 1e-300)
+        for _ in range(max_cuts):
+            x_try = problem.retract(x, t * dx)
+            E_try, g_try = problem.evaluate(x_try, False)[:2]
+            if not np.isfinite(E_try):
+                pass
+            elif E_try <= E + 1e-4 * t * slope:
+                accepted = True
+                break
+            elif -t * slope < noise and E_try <= E + noise and \
+                    problem.residual(g_try) < res:
+                accepted = True
+                break
+            t *= 0.5
+        if accepted:
+            x = x_try
+            E, g, H, Hp = problem.evaluate(x, True)
+            mu = max(mu / 3.0, MU_MIN) if t == 1.0 else (2.0 * mu if t < 0.25 else mu)
+        else:
+            mu = min(10.0 * mu, MU_MAX)
+            if mu >= MU_MAX:
+                raise RelaxationError(f"relaxation stalled at iteration {it}: no decrease of "
+                                      f"the energy along a damped Newton step (residual "
+                                      f"{res:.3e})", x, history)
+        history.append((E, res, mu, t if accepted else 0.0, used))
+        if progress is not None:
+            progress(it, E, res)
+    if raise_on_failure:
+        raise RelaxationError(f"relaxation: no convergence in {max_iter} iterations "
+                              f"(residual {history[-1][1]:.3e} > {tol:.1e})", x, history)
+    return Relaxed(x, E, float(problem.residual(g)), max_iter, False, history)

@@ -1,0 +1,165 @@
+"""The sweep loop: run a task over a grid of points, persist each point as it finishes.
+
+A *task* is a picklable top-level function ``task(params: dict, out_dir:
+pathlib.Path) -> dict``: ``params`` are the point's parameters merged over
+the sweep's constants, ``out_dir`` an empty folder for any files of that
+point (.vtu, .csv, ...), and the returned dict must be JSON-able (NaN and
+infinities are stored as null).  A task that raises marks its point
+"failed" (the message is kept, the other points go on; ``--resume`` runs
+failed points again).
+
+The task runs in a fresh temporary folder on whichever machine executes it,
+with one BLAS and one numba thread; its files come back with its result and
+are written, with the point's JSON record last, by this process (so a Dask
+cluster needs no shared file system).
+"""
+from dataclasses import dataclass, field
+import os
+from pathlib import Path
+import socket
+import tempfile
+import time
+
+from ..io.atomic import unrecorded
+from .executors import executor as make_executor
+from .store import SweepStore, point_key
+
+
+def task_name(task):
+    """``module:qualname`` of a task (how a sweep folder remembers it)."""
+    return f"{task.__module__}:{task.__qualname__}"
+
+
+def _collect(folder):
+    return {str(p.relative_to(folder)): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def execute(task, params):
+    """Run ``task`` on one point (in a worker); returns (outcome, files)."""
+    from threadpoolctl import threadpool_limits
+    from ..io.atomic import finite_or_none
+    import json
+    import numba
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)                   # per thread: also right in a Dask worker
+    with tempfile.TemporaryDirectory(prefix="knitfem-point-") as tmp, \
+            threadpool_limits(limits=1):
+        t0 = time.perf_counter()
+        try:
+            result = task(dict(params), Path(tmp))
+            if not isinstance(result, dict):
+                raise TypeError(f"the task returned {type(result).__name__}, not a dict")
+            result = finite_or_none(result)
+            json.dumps(result, allow_nan=False)
+            outcome = {"status": "done", "result": result, "error": None}
+        except Exception as err:                       # the point fails, the sweep goes on
+            outcome = {"status": "failed", "result": None,
+                       "error": f"{type(err).__name__}: {err}"}
+        outcome["elapsed_s"] = time.perf_counter() - t0
+        outcome["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+        files = _collect(Path(tmp))
+    numba.set_num_threads(threads)
+    return outcome, files
+
+
+@dataclass
+class SweepResult:
+    """Records in grid order (None for a point not finished), and the run's facts."""
+    out: Path
+    points: list
+    records: list
+    reused: int = 0
+    wall_s: float = 0.0
+    executor: str = ""
+    failed: list = field(default_factory=list)
+
+    @property
+    def complete(self):
+        return all(r is not None and r["status"] == "done" for r in self.records)
+
+    def results(self):
+        """The tasks' result dicts in grid order (None where not done)."""
+        return [r["result"] if r is not None and r["status"] == "done" else None
+                for r in self.records]
+
+
+def grid(**axes):
+    """The Cartesian product of the axes as a list of points (dicts), the last
+    axis varying fastest: ``grid(nw=[5, 10], nc=[5])`` ->
+    ``[{"nw": 5, "nc": 5}, {"nw": 10, "nc": 5}]``... in the order given."""
+    points = [{}]
+    for name, values in axes.items():
+        points = [dict(p, **{name: _plain(v)}) for p in points for v in values]
+    return points
+
+
+def _plain(v):
+    return v.item() if hasattr(v, "item") else v
+
+
+def run_sweep(task, points, out, *, constants=None, resume=False, workers=None,
+              scheduler=None, progress=True, desc="points", option="--out"):
+    """Run ``task`` over ``points`` (list of dicts), persisting each point in
+    ``out`` as it finishes; returns a :class:`SweepResult`.
+
+    constants : parameters shared by every point (merged under each point);
+    resume : keep the points of a previous run of the same task and constants
+        that finished ("done"); without it a previous sweep in ``out`` is
+        removed first;
+    workers : processes of the local pool (default: cores; 0: this process);
+    scheduler : address of a Dask scheduler (``tcp://host:port``) instead;
+    progress : a tqdm bar over points (on stderr).
+
+    An interruption (:mod:`knitfem.interrupt`) or any error stops the workers
+    and leaves ``sweep.json`` with ``complete: false``; finished points stay.
+    The files are the sweep's own (:class:`SweepStore`): an enclosing
+    :class:`knitfem.io.run.RunFolder` does not list them.
+    """
+    with unrecorded():
+        return _run(task, points, out, constants, resume, workers, scheduler, progress, desc,
+                    option)
+
+
+def _run(task, points, out, constants, resume, workers, scheduler, progress, desc, option):
+    constants = dict(constants or {})
+    points = [{k: _plain(v) for k, v in p.items()} for p in points]
+    keys = [point_key(p) for p in points]
+    if len(set(keys)) != len(keys):
+        raise ValueError("the sweep's points are not all different")
+    store = SweepStore(out, option)
+    done = store.open(task_name(task), constants, points, keys, resume)
+    records = {k: done[k] for k in keys if k in done}
+    todo = [(k, p) for k, p in zip(keys, points) if k not in done]
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(points), initial=len(records), desc=desc, unit="point")
+    t0 = time.perf_counter()
+    runner = make_executor(workers, scheduler)
+    status = {"complete": False}
+    try:
+        with runner:
+            jobs = [(k, execute, (task, {**constants, **p})) for k, p in todo]
+            params = dict(todo)
+            for key, (outcome, files) in runner.run(jobs):
+                record = store.save({"key": key, "params": params[key], **outcome}, files)
+                records[key] = record
+                if bar is not None:
+                    bar.update()
+                    if outcome["status"] != "done":
+                        bar.write(f"point {key} failed: {outcome['error']}")
+        status = {"complete": all(records.get(k, {}).get("status") == "done" for k in keys)}
+    except BaseException as err:
+        from ..io.run import describe
+        status = {"complete": False, "interrupted": describe(err)}
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+        wall = time.perf_counter() - t0
+        store.finish(**status, finished=len(records), reused=len(done), wall_s=wall,
+                     executor=runner.name)
+    ordered = [records.get(k) for k in keys]
+    return SweepResult(Path(out), points, ordered, len(done), wall, runner.name,
+                       [r for r in ordered if r is not None and r["status"] != "done"])
