@@ -6,7 +6,8 @@ swatch (:func:`knitfem.scenes.curl_bspline.bspline_curl`, FIRE, at most
 classifies it.  The beam column comes from the beam path: from
 ``knitfem.scenes.curl`` when that module exists (the lead's ``knitfem curl``),
 else from ``--beam-json DIR`` (files ``beam_<nw>x<nc>*.json`` written by
-``knitfem curl --json``), else it stays empty with a note.  Also the run time
+``knitfem curl --json``), else it stays empty with a note (``--no-beam``
+skips running the beam path here).  Also the run time
 against error on the first size: roll angles and residual against wall time.
 
     OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python studies/crosscheck_fabric.py \\
@@ -36,27 +37,11 @@ COLUMNS = ["model", "nw", "nc", "curl", "roll_left", "roll_right", "roll_top", "
            "max_penetration_over_d", "dofs", "elapsed_s", "note"]
 
 
-def beam_column(nw, nc, alpha, beam_json):
-    """The beam path's result at (nw, nc): list of dicts (GJ/EI small and default),
-    or a one-item list with only a note."""
-    try:
-        from knitfem.scenes import curl as beam_scene           # the lead's knitfem curl
-    except ImportError:
-        beam_scene = None
+def beam_column(nw, nc, alpha, beam_json, run_beam=True):
+    """The beam path's result at (nw, nc): list of dicts (GJ/EI = 1e-3, the
+    like-for-like comparison, and the beam's default), or a one-item list
+    with only a note."""
     rows = []
-    if beam_scene is not None:
-        for gj in (1e-3, None):
-            try:
-                kwargs = {"alpha": alpha, "progress": False}
-                if gj is not None:
-                    kwargs["gj_over_ei"] = gj
-                result = beam_scene.curl(nw, nc, **kwargs)
-                result["note"] = f"knitfem.scenes.curl, GJ/EI = {gj or 'default'}"
-                rows.append(result)
-            except Exception as err:                            # report, do not hide
-                rows.append({"model": "beam", "nw": nw, "nc": nc,
-                             "note": f"knitfem.scenes.curl failed: {err}"[:200]})
-        return rows
     if beam_json:
         for path in sorted(glob.glob(str(Path(beam_json) / f"beam_{nw}x{nc}*.json"))):
             result = json.loads(Path(path).read_text())
@@ -64,9 +49,28 @@ def beam_column(nw, nc, alpha, beam_json):
             rows.append(result)
         if rows:
             return rows
-    return [{"model": "beam", "nw": nw, "nc": nc,
-             "note": "beam path not available here (knitfem.scenes.curl not importable, no "
-                     "--beam-json): to be filled by `knitfem curl`"}]
+    try:
+        from knitfem.scenes.curl import curl                     # the lead's knitfem curl
+        from knitfem.scenes.fabric import FabricScene
+    except ImportError:
+        return [{"model": "beam", "nw": nw, "nc": nc,
+                 "note": "beam path not available here (knitfem.scenes.curl not importable, "
+                         "no --beam-json): to be filled by `knitfem curl`"}]
+    if not run_beam:
+        return [{"model": "beam", "nw": nw, "nc": nc,
+                 "note": "beam column not run here (--no-beam): `knitfem curl --nw "
+                         f"{nw} --nc {nc} --gj-over-ei 1e-3 --json ...`, then --beam-json"}]
+    for gj in (1e-3, None):
+        scene = FabricScene(nw, nc, alpha=alpha) if gj is None else FabricScene(
+            nw, nc, alpha=alpha, gj_over_ei=gj)
+        try:
+            result = curl(scene, render=False, progress=False)
+            result["note"] = f"knitfem.scenes.curl, GJ/EI = {scene.gj_over_ei:g}"
+        except Exception as err:                                # report, do not hide
+            result = {"model": "beam", "nw": nw, "nc": nc,
+                      "note": f"knitfem.scenes.curl failed: {err}"[:200]}
+        rows.append(result)
+    return rows
 
 
 def flat(result):
@@ -142,11 +146,27 @@ def main(argv=None):
     p.add_argument("--method", default="fire", choices=("fire", "dynamic"))
     p.add_argument("--k-contact", type=float, default=None,
                    help="contact stiffness g/s^2 (default: YarnConstants')")
-    p.add_argument("--beam-json", default=None)
+    p.add_argument("--beam-json", default=None,
+                   help="folder of beam_<nw>x<nc>*.json from `knitfem curl --json`")
+    p.add_argument("--no-beam", action="store_true",
+                   help="do not run the beam path here (it takes long); leave a note")
     p.add_argument("--tag", default="", help="suffix of the output names")
+    p.add_argument("--table-only", action="store_true",
+                   help="rebuild the table from the bspline_<size><tag>.json already in --out")
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.table_only:
+        rows = []
+        for size in args.sizes.split(","):
+            nw, nc = (int(v) for v in size.lower().split("x"))
+            path = out / f"bspline_{nw}x{nc}{args.tag}.json"
+            if path.exists():
+                rows.append(flat(json.loads(path.read_text())))
+                rows.extend(flat(r) for r in beam_column(nw, nc, args.alpha, args.beam_json,
+                                                         False))
+        write_table(rows, out, args.tag)
+        return rows
     constants = YarnConstants() if args.k_contact is None else YarnConstants(
         k_contact=args.k_contact)
     rows = []
@@ -161,7 +181,8 @@ def main(argv=None):
         plot_shape(out / f"bspline_{tag}.vtu", out / f"shape_{tag}.png",
                    f"B-spline {nw} x {nc}: {result['curl']}")
         rows.append(flat(result))
-        rows.extend(flat(r) for r in beam_column(nw, nc, args.alpha, args.beam_json))
+        rows.extend(flat(r) for r in beam_column(nw, nc, args.alpha, args.beam_json,
+                                                 not args.no_beam))
         print(json.dumps({k: result[k] for k in ("nw", "nc", "curl", "roll_deg", "converged",
                                                  "residual", "elapsed_s")}), flush=True)
         write_table(rows, out, args.tag)

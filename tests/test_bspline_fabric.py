@@ -6,7 +6,8 @@ from knitfem.bspline import ContactLaw, relax_dynamic, relax_newton
 from knitfem.bspline.contact import PairCache, candidate_pairs
 from knitfem.bspline.fire import relax_fire
 from knitfem.scenes.curl_bspline import bspline_curl, relax_swatch
-from knitfem.scenes.swatch_bspline import bspline_swatch, prestretch, swatch_ties
+from knitfem.geometry.knit import swatch_ties
+from knitfem.scenes.swatch_bspline import bspline_swatch, prestretch
 
 ISSUE_9_KEYS = {"nw", "nc", "model", "alpha", "curl", "edges_touch", "roll_deg", "curvature_x",
                 "curvature_y", "height_over_width", "converged", "residual", "stable",
@@ -55,17 +56,18 @@ def test_verlet_list_keeps_every_touching_pair_until_a_sample_moves_half_the_ski
     assert cache.builds == 2
 
 
-def test_swatch_ties_join_the_yarn_ends_to_the_nearest_bind_off_points():
+def test_ties_sit_at_the_woven_in_points_at_their_initial_distance():
+    """Every tie of the shared scene input (swatch_ties) joins the spline points
+    that started at its two polyline points, at zero extension."""
     bs = bspline_swatch(3, 4)
     ties = swatch_ties(bs.swatch)
-    assert [(a, b) for a, _, b, _ in ties] == [(0, 1), (0, 2)]
-    knit = bs.swatch.yarns[0].points
-    for (_, pa, yb, pb), end in zip(ties, (0, len(knit) - 1)):
-        helix = bs.swatch.yarns[yb].points
-        assert pa == end
-        assert np.isclose(np.linalg.norm(helix[pb] - knit[end]),
-                          np.linalg.norm(helix - knit[end], axis=1).min())
-    d, extension = bs.model.ties.stretch(bs.model._initial())
+    assert len(ties) == len(bs.model.ties.items) > 0
+    q0 = bs.model._initial()
+    p = bs.points(q0)
+    start = np.concatenate([[0], np.cumsum([len(y.points) for y in bs.swatch.yarns])])
+    d, extension = bs.model.ties.stretch(q0)
+    for (ya, pa, yb, pb), dk in zip(ties, d):
+        assert np.allclose(p[start[ya] + pa] - p[start[yb] + pb], dk, atol=1e-12)
     assert np.abs(extension).max() < 1e-12                  # at their initial distance
 
 

@@ -113,7 +113,7 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, newton=T
 
 def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_loop=16,
                  method="fire", rtol=1e-6, newton=True, max_time=1800.0, constants=None,
-                 bindoff_stiffness=1.0, out=None, name=None, progress=True, trace=False):
+                 bindoff_stiffness=10.0, out=None, name=None, progress=True, trace=False):
     """Curl of an nw x nc plain-knit swatch in the B-spline model: issue 9's
     JSON keys (dict) plus "constants", "energy", "method", "message" and the
     relaxation history.  Fields the model cannot measure are None (here every

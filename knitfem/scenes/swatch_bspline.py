@@ -7,12 +7,15 @@ B-spline model's own (:mod:`knitfem.bspline`).  Scene choices (issue 9):
 * the knit yarn is naturally straight; the pre-stretch alpha shrinks its
   rest length to (1 - alpha) x its knitted length (the paper's "decrease the
   natural length in the stretching energy by the length ratio alpha");
-* its two ends are tied into the bind-off (a darned-in tail): each end to the
-  nearest point of the bottom/top helix, held at the initial distance by a
-  spring as stiff as a yarn piece that long (EA / L0);
+* the tails are woven in (:func:`knitfem.geometry.knit.swatch_ties`, the
+  same ties as the beam scene): the knit yarn's ends to the nearest point of
+  the bottom/top helix and each helix's ends to the nearest knit point, each
+  held at its initial distance by a spring as stiff as a yarn piece that long
+  (EA / L0);
 * the bind-off helices keep their helix as natural shape (rest curvature and
-  torsion, :mod:`knitfem.bspline.energy`), stiffness factor ``bindoff_stiffness``
-  on EA and EI (the paper notes the bind-off's stiffness changes the curl);
+  torsion, :mod:`knitfem.bspline.energy`), ``bindoff_stiffness`` times the
+  yarn's EA and EI (default 10, as the beam scene: the paper notes the
+  bind-off's stiffness changes the curl);
   their self-contact is kept (the paper drops it to save time; here it costs
   nothing);
 * free-floating: no support at all; the six rigid motions are left to the
@@ -28,7 +31,7 @@ import numpy as np
 
 from ..bspline import BSplineModel, ContactLaw, Yarn
 from ..bspline.yarn import positive, segment_lengths
-from ..geometry.knit import plain_knit_swatch, swatch_control_points
+from ..geometry.knit import plain_knit_swatch, swatch_control_points, swatch_ties
 
 CM = 10.0                  # mm per cm
 
@@ -62,13 +65,12 @@ class YarnConstants:
         (shared scene input, default 0.4 mm: Kaldor's 1.25 mm would need
         loops w > 8r = 10 mm); the line density only sets the dynamics' time
         scale, never the equilibrium.
-    bend_fraction: EI as a fraction of a solid rod's EA r^2 / 4.  Kaldor's
-        k_bend could not be sourced (the re-implementation's versions use
-        0.005, 0.05 and 5 g cm^3/s^2); chosen so the yarn is as soft in bending
-        as real yarn relative to stretching (1-5 % of a solid rod, design
-        notes: a solid rod's ratio crumples the knit into a ball) and so that
-        both models describe the same yarn: the beam path takes EA/EI from the
-        same number.  Default 0.02: EA/EI = 200 / r^2.
+    ea_over_ei: EA/EI in 1/mm^2, EI = EA / ea_over_ei.  Kaldor's k_bend could
+        not be sourced (the re-implementation's versions use 0.005, 0.05 and
+        5 g cm^3/s^2); chosen so both models describe the same yarn: the beam
+        scene's default (:mod:`knitfem.scenes.fabric`, 800 / mm^2, 3 % of a
+        solid rod's 4/r^2 at r = 0.4 mm: yarn is far softer in bending than a
+        rod relative to stretching; a solid rod's ratio crumples the knit).
     contact_damping, tangential_damping: normal and tangential contact
         damping (force per velocity per length^2), dynamic relaxation only;
         not given by the paper, chosen to damp a touching pair's relative
@@ -79,7 +81,7 @@ class YarnConstants:
     k_global: float = 1.00e-2             # g/s (paper)
     line_density_cm: float = 0.006        # g/cm (Kaldor via re-implementation)
     radius_kaldor_cm: float = 0.125       # cm (Kaldor via re-implementation; not used)
-    bend_fraction: float = 0.02           # EI / (EA r^2 / 4)
+    ea_over_ei: float = 800.0             # 1/mm^2 (the beam scene's default)
     contact_damping: float = 1.0e-2       # g/(s mm^2)
     tangential_damping: float = 1.0e-2    # g/(s mm^2)
     contact_form: str = "kaldor"          # or "smooth" (C2, not the paper's)
@@ -95,8 +97,9 @@ class YarnConstants:
         return 2.0 * self.k_len * CM        # 2 k_len per cm of yarn: g cm/s^2 -> g mm/s^2
 
     def EI(self, radius):
-        """Bending stiffness (g mm^3/s^2) for yarn radius ``radius`` (mm)."""
-        return self.bend_fraction * self.EA * radius**2 / 4.0
+        """Bending stiffness (g mm^3/s^2); the same for every ``radius`` (mm)
+        (kept as an argument: the ratio is the beam scene's, at r = 0.4 mm)."""
+        return self.EA / self.ea_over_ei
 
     @property
     def line_density(self):
@@ -113,26 +116,10 @@ class YarnConstants:
         return {"EA": self.EA, "EI": self.EI(radius), "ea_over_ei": self.EA / self.EI(radius),
                 "k_contact": self.k_contact, "damping_rate": self.damping_rate,
                 "line_density": self.line_density, "radius": radius,
-                "bend_fraction": self.bend_fraction,
+                "bend_fraction": 4.0 * self.EI(radius) / (self.EA * radius**2),
                 "contact_damping": self.contact_damping,
                 "tangential_damping": self.tangential_damping,
                 "contact_form": self.contact_form}
-
-
-def swatch_ties(swatch):
-    """STAND-IN, to be replaced by :func:`knitfem.geometry.knit.swatch_ties` once
-    it lands on main: (yarn_a, point_a, yarn_b, point_b) index pairs into the
-    yarns' ``points``: the knit yarn's first point to the nearest point of the
-    bottom bind-off helix (yarn 1), its last point to the nearest of the top
-    helix (yarn 2).  Empty without bind-off."""
-    if len(swatch.yarns) < 3:
-        return []
-    knit = swatch.yarns[0].points
-    out = []
-    for point, helix in ((0, 1), (len(knit) - 1, 2)):
-        d = np.linalg.norm(swatch.yarns[helix].points - knit[point], axis=1)
-        out.append((0, point, helix, int(np.argmin(d))))
-    return out
 
 
 def point_parameters(points, segments):
@@ -170,7 +157,7 @@ class BSplineSwatch:
 
 
 def bspline_swatch(n_wale, n_course, *, w=4.0, c=3.0, radius=0.4, segments_per_loop=16,
-                   constants=None, bindoff_stiffness=1.0, ties=True, contact_skin=None,
+                   constants=None, bindoff_stiffness=10.0, ties=True, contact_skin=None,
                    knit_natural="straight"):
     """The B-spline model of an n_wale x n_course plain-knit swatch with bind-off
     (a :class:`BSplineSwatch`), at rest length = knitted length (alpha = 0;
