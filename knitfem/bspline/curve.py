@@ -11,6 +11,8 @@ r'(0) = (q_{i+2} - q_i) / 2.  Everything here is geometry: evaluation and
 least-squares fitting, shared by the knit geometry and the yarn mechanics.
 """
 import numpy as np
+from scipy import sparse
+from scipy.sparse import linalg as splinalg
 
 _M = np.array([[-1.0, 3.0, -3.0, 1.0],        # B_j(u) = sum_k M[k, j] u^(3-k) / 6
                [3.0, -6.0, 3.0, 0.0],
@@ -63,8 +65,12 @@ def fit(points, segments, closed=False):
     t = chord / chord[-1] * segments
     seg = np.minimum(t.astype(int), segments - 1)
     B = basis(t - seg)
-    A = np.zeros((points.shape[0], n_ctrl))
     idx = segment_indices(segments, closed)[seg]
-    np.add.at(A, (np.repeat(np.arange(points.shape[0]), 4), idx.ravel()), B.ravel())
-    q, *_ = np.linalg.lstsq(A, points, rcond=None)
-    return q
+    # banded collocation matrix (4 entries a row): sparse least squares
+    A = sparse.csr_matrix((B.ravel(), (np.repeat(np.arange(points.shape[0]), 4), idx.ravel())),
+                          shape=(points.shape[0], n_ctrl))
+    N = (A.T @ A).tocsc()
+    if np.any(np.abs(N.diagonal()) == 0):
+        raise ValueError(f"points leave some of the {segments} segments empty: give more "
+                         "points or fewer segments")
+    return np.atleast_2d(splinalg.spsolve(N, A.T @ points)).reshape(n_ctrl, 3)

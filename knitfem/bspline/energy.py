@@ -1,20 +1,37 @@
-"""Elastic energies of B-spline yarns and their exact gradients.
+"""Elastic energies of B-spline yarns, their exact gradients and Hessians.
 
-Per segment s with rest length l_s, at Gauss points u_g (weights w_g), with
-a = r'(u) and b = r''(u) (derivatives in the segment parameter):
+Per segment s, at Gauss points u_g (weights w_g), with a = r'(u), b = r''(u)
+(derivatives in the segment parameter), kappa = |a x b| / |a|^3 the
+curvature and tau the torsion (density: :mod:`.gausspoint`):
 
-    stretching  E_len  = sum  EA/2 (|a|/l - 1)^2 l w          (Kaldor's k_len = EA/2)
-    bending     E_bend = sum  EI/2 |a x b|^2 / |a|^5 w         (= EI/2 kappa^2 ds)
+    stretching  E_len  = sum  EA/2 (|a|/l_g - 1)^2 l_g w          (Kaldor's k_len = EA/2)
+    bending     E_bend = sum  EI/2 (kappa - kappa0)^2 |a| w      (= EI/2 (kappa - kappa0)^2 ds)
+                       + sum  EI/2 (tau - tau0)^2 |a| w         (naturally curved yarns only)
     gravity     E_g    = -sum rho_l l g . r(u) w
 
-The yarn has no twist energy (as in Kaldor 2008).  Every function works on all
-segments of all yarns at once: ``seg`` (S, 4) holds global control-point
-indices, so gradients are scattered with one bincount per component.
-Units: any consistent set (EA force, EI force x length^2).
+l_g is the rest speed at the Gauss point: the segment's rest length l_s for
+a naturally straight yarn (Kaldor's form), the initial |r'| for a yarn whose
+natural state is its initial curve (a fitted spline's speed varies along a
+segment: with l_s there, the natural shape would not be at rest).  With
+kappa0 = 0 the bending energy is Kaldor's EI/2 |a x b|^2 / |a|^5 w.  A
+naturally curved yarn (the bind-off helix) has its initial curvature kappa0
+and torsion tau0 as rest state: a curve is fixed up to rigid motion by its
+curvature and torsion, so the helix is the only shape without energy
+(curvature alone would leave a family of constant-curvature curves, down to
+a tight coil, at no energy).  No twist of a material frame (Kaldor's yarns
+have none); the torsion stiffness is taken equal to EI.  Everything runs
+over all segments of all yarns at once: ``seg`` (S, 4) holds global
+control-point indices; the loops are compiled with numba (dynamic
+relaxation calls them 1e4-1e5 times).  Units: any consistent set (EA force,
+EI force x length^2, kappa0 and tau0 1/length).
 """
 import numpy as np
+from numba import njit
 
+from . import gausspoint
 from .curve import basis
+
+B3 = np.array([-1.0, 3.0, -3.0, 1.0])     # r''' = sum_j B3_j q_j on every cubic segment
 
 
 def gauss(points):
@@ -31,17 +48,6 @@ class Quadrature:
         self.B, self.dB, self.ddB = (basis(self.u, k) for k in range(3))
 
 
-def _scatter(seg, coeff_a, dB, coeff_b=None, ddB=None, n=None):
-    """sum over Gauss points of coeff_a (S, G, 3) dB (G, 4) [+ coeff_b ddB] into (n, 3)."""
-    per_ctrl = np.einsum("sgk,gj->sjk", coeff_a, dB)
-    if coeff_b is not None:
-        per_ctrl += np.einsum("sgk,gj->sjk", coeff_b, ddB)
-    out = np.zeros((n, 3))
-    for k in range(3):
-        out[:, k] = np.bincount(seg.ravel(), per_ctrl[:, :, k].ravel(), minlength=n)
-    return out
-
-
 def derivatives(q, seg, quad):
     """a = r' and b = r'' at every Gauss point: (S, G, 3) each."""
     local = q[seg]                                                  # (S, 4, 3)
@@ -49,32 +55,110 @@ def derivatives(q, seg, quad):
             np.einsum("gj,sjk->sgk", quad.ddB, local))
 
 
-def stretching(q, seg, rest, EA, quad, a=None):
-    """Energy and gradient (n, 3) of axial stretching."""
-    if a is None:
-        a = np.einsum("gj,sjk->sgk", quad.dB, q[seg])
-    speed = np.linalg.norm(a, axis=2)                               # (S, G)
-    strain = speed / rest[:, None] - 1.0
-    w = quad.w[None, :]
-    energy = np.sum(0.5 * EA[:, None] * strain**2 * rest[:, None] * w)
-    coeff = (EA[:, None] * strain * w / speed)[:, :, None] * a
-    return energy, _scatter(seg, coeff, quad.dB, n=q.shape[0])
+def curvature(q, seg, quad):
+    """Curvature |a x b| / |a|^3 at every Gauss point (S, G)."""
+    a, b = derivatives(q, seg, quad)
+    return np.linalg.norm(np.cross(a, b), axis=2) / np.linalg.norm(a, axis=2) ** 3
 
 
-def bending(q, seg, EI, quad, a=None, b=None):
-    """Energy and gradient (n, 3) of isotropic bending, EI/2 kappa^2 ds."""
-    if a is None:
-        a, b = derivatives(q, seg, quad)
+def torsion(q, seg, quad):
+    """Torsion (a x b) . r''' / |a x b|^2 at every Gauss point (S, G), 0 where
+    the curve is straight."""
+    a, b = derivatives(q, seg, quad)
+    d = np.broadcast_to(np.einsum("j,sjk->sk", B3, q[seg])[:, None, :], a.shape)
     c = np.cross(a, b)
-    c2 = np.einsum("sgk,sgk->sg", c, c)
-    na2 = np.einsum("sgk,sgk->sg", a, a)
-    na5 = na2**2.5
-    k = 0.5 * EI[:, None] * quad.w[None, :]
-    energy = np.sum(k * c2 / na5)
-    # d|c|^2/da = 2 b x c, d|c|^2/db = 2 c x a, d|a|^-5/da = -5 |a|^-7 a
-    coeff_a = (k / na5)[:, :, None] * (2.0 * np.cross(b, c) - (5.0 * c2 / na2)[:, :, None] * a)
-    coeff_b = (2.0 * k / na5)[:, :, None] * np.cross(c, a)
-    return energy, _scatter(seg, coeff_a, quad.dB, coeff_b, quad.ddB, n=q.shape[0])
+    F = np.einsum("sgk,sgk->sg", c, c)
+    straight = F <= 1e-14 * np.einsum("sgk,sgk->sg", a, a) ** 2
+    return np.where(straight, 0.0, np.einsum("sgk,sgk->sg", c, d) / np.where(straight, 1.0, F))
+
+
+@njit(cache=True)
+def _local(q, seg, s, g, dB, ddB, B3):
+    """a = r', b = r'', d = r''' of segment s at Gauss point g."""
+    a = np.zeros(3)
+    b = np.zeros(3)
+    d = np.zeros(3)
+    for j in range(4):
+        a += dB[g, j] * q[seg[s, j]]
+        b += ddB[g, j] * q[seg[s, j]]
+        d += B3[j] * q[seg[s, j]]
+    return a, b, d
+
+
+@njit(cache=True, inline="always")
+def _combine(c, q, i0, i1, i2, i3):
+    """sum_j c_j q_{i_j} as a 3-tuple (no allocation)."""
+    return (c[0] * q[i0, 0] + c[1] * q[i1, 0] + c[2] * q[i2, 0] + c[3] * q[i3, 0],
+            c[0] * q[i0, 1] + c[1] * q[i1, 1] + c[2] * q[i2, 1] + c[3] * q[i3, 1],
+            c[0] * q[i0, 2] + c[1] * q[i1, 2] + c[2] * q[i2, 2] + c[3] * q[i3, 2])
+
+
+@njit(cache=True)
+def _elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, g_stretch, g_bend,
+             e_stretch, e_bend):
+    for s in range(seg.shape[0]):
+        i0, i1, i2, i3 = seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3]
+        d = _combine(B3, q, i0, i1, i2, i3)
+        for g in range(w.shape[0]):
+            a = _combine(dB[g], q, i0, i1, i2, i3)
+            b = _combine(ddB[g], q, i0, i1, i2, i3)
+            e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], EA[s], 0.0, 0.0, 0.0,
+                                                   False, w[g])
+            e_stretch[s] += e
+            for j in range(4):
+                for k in range(3):
+                    g_stretch[seg[s, j], k] += dB[g, j] * e_a[k]
+            e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], 0.0, EI[s],
+                                                   kappa0[s, g], tau0[s, g], curved[s], w[g])
+            e_bend[s] += e
+            for j in range(4):
+                for k in range(3):
+                    g_bend[seg[s, j], k] += (dB[g, j] * e_a[k] + ddB[g, j] * e_b[k]
+                                             + B3[j] * e_d[k])
+
+
+def elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, quad, g_stretch, g_bend):
+    """Stretching and bending energies (returned separately); their gradients
+    are added to ``g_stretch`` and ``g_bend`` (n, 3).
+
+    q (n, 3) control points; seg (S, 4); rest (S, G) rest speeds |r'| at the
+    Gauss points; EA, EI (S,); kappa0, tau0 (S, G) natural curvature and
+    torsion; curved (S,) bool: torsion term on.  (Energies are summed per
+    segment, then pairwise by numpy: a running sum over 1e5 Gauss points
+    would lose the small energy changes near rest.)"""
+    e_stretch, e_bend = np.zeros(seg.shape[0]), np.zeros(seg.shape[0])
+    _elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, quad.dB, quad.ddB, quad.w, B3,
+             g_stretch, g_bend, e_stretch, e_bend)
+    return float(np.sum(e_stretch)), float(np.sum(e_bend))
+
+
+@njit(cache=True)
+def _hessian(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, project):
+    S = seg.shape[0]
+    out = np.zeros((S, 12, 12))
+    H = np.zeros((9, 9))
+    C = np.zeros((3, 4))
+    for s in range(S):
+        for g in range(w.shape[0]):
+            a, b, d = _local(q, seg, s, g, dB, ddB, B3)
+            gausspoint.energy(a, b, d, rest[s, g], EA[s], EI[s], kappa0[s, g], tau0[s, g],
+                              curved[s], w[g], True, project, H)
+            C[0], C[1], C[2] = dB[g], ddB[g], B3
+            for j in range(4):
+                for k in range(4):
+                    for x in range(3):
+                        for y in range(3):
+                            out[s, 3 * j:3 * j + 3, 3 * k:3 * k + 3] += (
+                                C[x, j] * C[y, k] * H[3 * x:3 * x + 3, 3 * y:3 * y + 3])
+    return out
+
+
+def elastic_hessian(q, seg, rest, EA, EI, kappa0, tau0, curved, quad, project):
+    """Per-segment Hessian blocks (S, 12, 12) of the elastic energy with
+    respect to the segment's 4 control points (x, y, z each); ``project``:
+    positive semi-definite part per Gauss point."""
+    return _hessian(q, seg, rest, EA, EI, kappa0, tau0, curved, quad.dB, quad.ddB, quad.w, B3,
+                    bool(project))
 
 
 def gravity_force(seg, rest, line_density, g, quad, n):

@@ -1,4 +1,4 @@
-"""A yarn-level model: B-spline yarns, clamps, gravity, contact (Kaldor 2008).
+"""A yarn-level model: B-spline yarns, clamps, loads, ties, contact (Kaldor 2008).
 
 Independent of the beam model: it shares only geometry input (centrelines)
 and output formats.  Unknowns are *reduced coordinates* y with control points
@@ -9,8 +9,11 @@ real clamp) by tying the first three control points to (q_0, s):
     q_2 = q_0 + 2 s t,   q_1 = (6 P - q_0 - q_2) / 4
     =>  r(0) = (q_0 + 4 q_1 + q_2)/6 = P,   r'(0) = (q_2 - q_0)/2 = s t.
 
-Units: any consistent set (EA force, EI force length^2, line density mass per
-length, contact stiffness energy per length^2).
+The energy (stretching, bending, contact, ties, dead loads: see
+:mod:`.energy`, :mod:`.contact`, :mod:`.points`) comes with its exact
+gradient and its sparse Hessian.  Units: any consistent set (EA force, EI
+force length^2, line density mass per length, contact stiffness energy per
+length^2).
 """
 from dataclasses import dataclass, field
 
@@ -18,67 +21,13 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import linalg as splinalg
 
-from . import curve, energy
-from .contact import ContactLaw, candidate_pairs, contact_damping, contact_energy
+from . import curve, energy, points
+from .contact import ContactLaw, PairCache, contact_damping, contact_energy, contact_hessian
+from .yarn import Yarn, positive
 
+__all__ = ["BSplineModel", "Yarn", "YarnState"]
 
-def _positive(name, value, allow_zero=False):
-    v = float(value)
-    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        rng = "[0, inf)" if allow_zero else "(0, inf)"
-        raise ValueError(f"{name} must be finite and in {rng}, got {value!r}")
-    return v
-
-
-@dataclass
-class Yarn:
-    """One yarn: control points (N+3, 3) (open) or (N, 3) (closed), rest length
-    per segment (N,), stiffnesses, radius and line density."""
-    control: np.ndarray
-    rest: np.ndarray
-    EA: float
-    EI: float
-    closed: bool = False
-    radius: float = float("nan")
-    line_density: float = 1.0
-    name: str = "yarn"
-
-    def __post_init__(self):
-        self.control = np.asarray(self.control, dtype=float)
-        self.rest = np.asarray(self.rest, dtype=float)
-        if self.control.ndim != 2 or self.control.shape[1] != 3:
-            raise ValueError(f"control points must have shape (n, 3), got {self.control.shape}")
-        if not np.all(np.isfinite(self.control)):
-            raise ValueError("control points contain NaN or infinite values (valid: finite)")
-        if self.segments < 1 or self.rest.shape != (self.segments,):
-            raise ValueError(f"rest lengths must have shape ({self.segments},) for "
-                             f"{self.control.shape[0]} control points, got {self.rest.shape}")
-        if not np.all(np.isfinite(self.rest) & (self.rest > 0)):
-            raise ValueError("rest lengths must be finite and in (0, inf)")
-        self.EA = _positive("EA", self.EA)
-        self.EI = _positive("EI", self.EI)
-        self.line_density = _positive("line_density", self.line_density)
-
-    @property
-    def segments(self):
-        return self.control.shape[0] - (0 if self.closed else 3)
-
-    @classmethod
-    def through(cls, points, segments, EA, EI, *, closed=False, natural="shape", length=None,
-                **kwargs):
-        """A yarn fitted to the centreline ``points`` (n, 3).  natural="shape": rest
-        lengths are the fitted segments' lengths; "straight" with ``length``:
-        equal rest lengths length/segments (a straight yarn bent into shape)."""
-        q = curve.fit(points, segments, closed)
-        if natural == "shape":
-            quad = energy.Quadrature(8)
-            a = curve.evaluate(q, quad.u, closed, derivative=1)
-            rest = np.linalg.norm(a, axis=2) @ quad.w
-        elif natural == "straight":
-            rest = np.full(segments, _positive("length", length) / segments)
-        else:
-            raise ValueError(f"natural must be 'shape' or 'straight', got {natural!r}")
-        return cls(q, rest, EA, EI, closed, **kwargs)
+ROUNDOFF = 10.0 * np.finfo(float).eps     # margin over the round-off of one force term
 
 
 @dataclass
@@ -90,9 +39,13 @@ class _Clamp:
 
 
 class BSplineModel:
-    """Yarns + clamps/fixed points + gravity + contact, as an energy of y."""
+    """Yarns + clamps/fixed points + gravity, dead loads and ties at curve
+    points + contact, as an energy of the reduced coordinates y.
 
-    def __init__(self, yarns, *, contact=None, gravity=None, quadrature=4):
+    contact_skin: width of the Verlet list's skin (default r/2): candidate
+    pairs within 2r + skin are kept until a sample has moved skin/2."""
+
+    def __init__(self, yarns, *, contact=None, gravity=None, quadrature=4, contact_skin=None):
         if not yarns:
             raise ValueError("a model needs at least one yarn")
         self.yarns = list(yarns)
@@ -101,20 +54,51 @@ class BSplineModel:
         self.offset = np.concatenate([[0], np.cumsum(sizes)])
         self.n = int(self.offset[-1])
         self.seg = np.concatenate([curve.segment_indices(y.segments, y.closed) + o
-                                   for y, o in zip(self.yarns, self.offset)])
-        self.rest0 = np.concatenate([y.rest for y in self.yarns])
-        self.rest = self.rest0.copy()
+                                   for y, o in zip(self.yarns, self.offset)]).astype(np.int64)
         per = [np.full(y.segments, k) for k, y in enumerate(self.yarns)]
         self.yarn_of_segment = np.concatenate(per)
         self.EA = np.concatenate([np.full(y.segments, y.EA) for y in self.yarns])
         self.EI = np.concatenate([np.full(y.segments, y.EI) for y in self.yarns])
         self.rho = np.concatenate([np.full(y.segments, y.line_density) for y in self.yarns])
+        # rest speed |r'| at every Gauss point: the initial one for shaped yarns (their
+        # segments' rest lengths become its integral), else the segment's rest length
+        speed = np.concatenate([
+            np.linalg.norm(curve.evaluate(y.control, self.quad.u, y.closed, 1), axis=2)
+            if y.shaped else np.repeat(y.rest[:, None], len(self.quad.w), axis=1)
+            for y in self.yarns])
+        self.speed0 = speed
+        self.rest0 = speed @ self.quad.w
+        self.rest = self.rest0.copy()
+        self.kappa0 = np.concatenate([
+            energy.curvature(y.control, curve.segment_indices(y.segments, y.closed), self.quad)
+            if y.curved else np.zeros((y.segments, len(self.quad.w))) for y in self.yarns])
+        self.tau0 = np.concatenate([
+            energy.torsion(y.control, curve.segment_indices(y.segments, y.closed), self.quad)
+            if y.curved else np.zeros((y.segments, len(self.quad.w))) for y in self.yarns])
+        self.curved = np.concatenate([np.full(y.segments, y.curved) for y in self.yarns])
         self.contact = contact
         if contact is not None and not isinstance(contact, ContactLaw):
             raise ValueError("contact must be a ContactLaw or None")
         self.gravity = None if gravity is None else np.asarray(gravity, float)
+        self.speed = self.speed0.copy()
         self.clamps, self.fixed = [], set()
+        self.loads = points.DeadLoads(self)
+        self.ties = points.Ties(self)
         self._reduction = None
+        self.sampling = points.sampling_matrix(self.seg, self.quad.B, self.n)
+        self._pairs = None
+        if contact is not None:
+            skin = 0.5 * contact.radius if contact_skin is None else positive(
+                "contact_skin", contact_skin, allow_zero=True)
+            _, _, yarn, s = self.samples(self._initial(), rest=self.rest0)
+            self._pairs = PairCache(contact, yarn, s, skin,
+                                    [y.self_contact for y in self.yarns])
+        # round-off of the gradient at the model's own scales (its initial extent, its
+        # shortest segment), not at the current iterate: forces below it are noise
+        extent = float(np.abs(self._initial()).max())
+        h = float(self.rest0.min())
+        self.roundoff = ROUNDOFF * np.sqrt(3 * self.n) * extent / h * float(
+            np.max(self.EA + self.EI / h**2))
 
     # -- constraints -------------------------------------------------------------
     def clamp(self, yarn, end, position=None, tangent=None):
@@ -205,6 +189,8 @@ class BSplineModel:
     def reduce(self, q):
         """Reduced coordinates y best matching control points q (n, 3) (least squares)."""
         Z, qbar = self.reduction()
+        if not self.clamps and not self.fixed:
+            return np.asarray(q, float).ravel().copy()
         return splinalg.lsqr(Z, np.asarray(q, float).ravel() - qbar, atol=1e-15, btol=1e-15)[0]
 
     def control_points(self, y):
@@ -217,64 +203,128 @@ class BSplineModel:
         if not 0.0 <= alpha < 1.0:
             raise ValueError(f"alpha (pre-stretch ratio) must be in [0, 1), got {alpha!r}")
         self.rest = (1.0 - alpha) * self.rest0
+        self.speed = (1.0 - alpha) * self.speed0
 
     # -- energy ----------------------------------------------------------------------
-    def samples(self, q):
-        """Gauss-point positions (S*G, 3), their arclength weights, yarn id, arclength."""
+    def samples(self, q, rest=None):
+        """Gauss-point positions (S*G, 3), their arclength weights, yarn id and
+        arclength along their yarn (of the rest lengths ``rest``, default the
+        current ones)."""
+        rest = self.rest if rest is None else rest
         pts = self._at_samples(q)
-        weights = (self.rest[:, None] * self.quad.w[None, :]).ravel()
-        start = np.concatenate([[0.0], np.cumsum(self.rest)])[:-1]
-        arclength = (start[:, None] + self.rest[:, None] * self.quad.u[None, :]).ravel()
+        weights = (rest[:, None] * self.quad.w[None, :]).ravel()
+        start = np.concatenate([[0.0], np.cumsum(rest)])[:-1]
+        start = start - start[self.offset_segments()[self.yarn_of_segment]]
+        arclength = (start[:, None] + rest[:, None] * self.quad.u[None, :]).ravel()
         yarn = np.repeat(self.yarn_of_segment, self.quad.u.shape[0])
         return pts, weights, yarn, arclength
+
+    def offset_segments(self):
+        """Index of the first segment of every yarn (n_yarns + 1,)."""
+        return np.concatenate([[0], np.cumsum([y.segments for y in self.yarns])])
+
+    def contact_pairs(self, q):
+        """Candidate sample pairs (Verlet list) at control points q."""
+        return self._pairs(self._at_samples(q))
 
     def energy(self, q):
         """Total energy, gradient (n, 3), and the summed sizes of the separate
         force contributions (a reference for relative residuals, at least the
-        force of an axial strain of 1e-9)."""
+        round-off floor :attr:`roundoff`)."""
         return self._forces(q)[:3]
 
-    def _forces(self, q, qdot=None):
-        """:meth:`energy` and, with control-point velocities ``qdot`` and a
-        dissipative contact law, the contact damping force (n, 3) from the same
-        samples and pairs (else None)."""
-        a, b = energy.derivatives(q, self.seg, self.quad)
-        E1, g1 = energy.stretching(q, self.seg, self.rest, self.EA, self.quad, a)
-        E2, g2 = energy.bending(q, self.seg, self.EI, self.quad, a, b)
-        total, grad = E1 + E2, g1 + g2
-        ref = np.linalg.norm(g1) + np.linalg.norm(g2)
-        damping = None
-        if self.gravity is not None:
-            f = energy.gravity_force(self.seg, self.rest, self.rho, self.gravity, self.quad, self.n)
-            total -= np.sum(f * q)
-            grad = grad - f
+    def energy_parts(self, q):
+        """Energy by contribution: stretching, bending, contact, ties, loads (dict)."""
+        return self._forces(q, parts=True)[4]
+
+    def _forces(self, q, qdot=None, parts=False):
+        """:meth:`energy`, the contact damping force (n, 3) at control-point
+        velocities ``qdot`` with a dissipative contact law (else None), from the
+        same samples and pairs, and (with ``parts``) the energy by contribution."""
+        q = np.ascontiguousarray(q, dtype=float)
+        g_len, g_bend = np.zeros_like(q), np.zeros_like(q)
+        E_len, E_bend = energy.elastic(q, self.seg, self.speed, self.EA, self.EI, self.kappa0,
+                                       self.tau0, self.curved, self.quad, g_len, g_bend)
+        total, grad = E_len + E_bend, g_len + g_bend
+        ref = np.linalg.norm(g_len) + np.linalg.norm(g_bend)
+        split = {"stretching": E_len, "bending": E_bend, "contact": 0.0, "ties": 0.0,
+                 "loads": 0.0}
+        f = self.dead_load()
+        if f is not None:
+            split["loads"] = -float(np.sum(f * q))
+            total += split["loads"]
+            grad -= f
             ref += np.linalg.norm(f)
+        if self.ties:
+            Et, gt = self.ties.energy(q)
+            split["ties"] = Et
+            total += Et
+            grad += gt
+            ref += np.linalg.norm(gt)
+        damping = None
         if self.contact is not None:
-            pts, weights, yarn, s = self.samples(q)
-            pairs = candidate_pairs(pts, yarn, s, self.contact)
+            pts = self._at_samples(q)
+            weights = (self.rest[:, None] * self.quad.w[None, :]).ravel()
+            pairs = self._pairs(pts)
             Ec, gp, _ = contact_energy(pts, weights, pairs, self.contact)
             if Ec:
                 gc = self._to_control_points(gp)
+                split["contact"] = Ec
                 total += Ec
-                grad = grad + gc
+                grad += gc
                 ref += np.linalg.norm(gc)
             if qdot is not None and self.contact.dissipates:
                 damping = self._to_control_points(
                     contact_damping(pts, self._at_samples(qdot), weights, pairs, self.contact))
-        # forces below an axial strain of 1e-9 are noise: a floor for unloaded states
-        return total, grad, max(ref, 1e-9 * float(self.EA.max())), damping
+        return total, grad, max(ref, self.roundoff), damping, split
+
+    def dead_load(self):
+        """Constant nodal forces (n, 3) of gravity and the dead loads (None if none)."""
+        f = None
+        if self.gravity is not None:
+            f = energy.gravity_force(self.seg, self.rest0, self.rho, self.gravity, self.quad,
+                                     self.n)
+        if self.loads:
+            f = self.loads.force() if f is None else f + self.loads.force()
+        return f
+
+    def hessian(self, q, project=False):
+        """Sparse Hessian (3n, 3n) of the energy at control points q; ``project``:
+        each Gauss point's and each contact pair's positive semi-definite part
+        (a convex model of the energy, for Newton steps far from equilibrium)."""
+        q = np.ascontiguousarray(q, dtype=float)
+        blocks = energy.elastic_hessian(q, self.seg, self.speed, self.EA, self.EI, self.kappa0,
+                                        self.tau0, self.curved, self.quad, project)
+        dof = (3 * self.seg[:, :, None] + np.arange(3)[None, None, :]).reshape(-1, 12)
+        rows = np.broadcast_to(dof[:, :, None], blocks.shape).ravel()
+        cols = np.broadcast_to(dof[:, None, :], blocks.shape).ravel()
+        H = sparse.csr_matrix((blocks.ravel(), (rows, cols)), shape=(3 * self.n, 3 * self.n))
+        if self.ties:
+            H = H + self.ties.hessian(q, project)
+        if self.contact is not None:
+            pts = self._at_samples(q)
+            weights = (self.rest[:, None] * self.quad.w[None, :]).ravel()
+            Hs = contact_hessian(pts, weights, self._pairs(pts), self.contact, project)
+            if Hs.nnz:
+                H = H + (self.sampling.T @ Hs @ self.sampling)
+        return H.tocsr()
+
+    def reduced_hessian(self, y, project=False):
+        """Zᵀ H Z: the Hessian with respect to the reduced coordinates."""
+        Z, _ = self.reduction()
+        H = self.hessian(self.control_points(y), project)
+        return H if self._identity() else (Z.T @ H @ Z).tocsr()
+
+    def _identity(self):
+        return not self.clamps and not self.fixed
 
     def _at_samples(self, q):
         """Control-point vectors (n, 3) -> the curve's vectors at the Gauss points (S*G, 3)."""
-        return np.einsum("gj,sjk->sgk", self.quad.B, q[self.seg]).reshape(-1, 3)
+        return (self.sampling @ np.asarray(q).ravel()).reshape(-1, 3)
 
     def _to_control_points(self, sample_vectors):
         """Gauss-point forces (S*G, 3) -> the same virtual work on control points (n, 3)."""
-        per = np.einsum("gj,sgk->sjk", self.quad.B, sample_vectors.reshape(len(self.seg), -1, 3))
-        out = np.zeros((self.n, 3))
-        for k in range(3):
-            out[:, k] = np.bincount(self.seg.ravel(), per[:, :, k].ravel(), minlength=self.n)
-        return out
+        return (self.sampling.T @ sample_vectors.ravel()).reshape(-1, 3)
 
     def contact_damping(self, y, v):
         """Contact damping force on the reduced coordinates at state y moving
@@ -287,9 +337,15 @@ class BSplineModel:
         dissipative contact law), from one pass over the contact samples."""
         Z, _ = self.reduction()
         qdot = (Z @ v).reshape(-1, 3)          # the clamps hold still while relaxing
-        E, g, ref, damping = self._forces(self.control_points(y), qdot)
+        E, g, ref, damping, _ = self._forces(self.control_points(y), qdot)
         fd = np.zeros_like(v) if damping is None else Z.T @ damping.ravel()
         return E, Z.T @ g.ravel(), ref, fd
+
+    def reduced_energy(self, y):
+        """Energy, gradient with respect to y, reference force size."""
+        Z, _ = self.reduction()
+        E, g, ref = self.energy(self.control_points(y))
+        return E, (g.ravel() if self._identity() else Z.T @ g.ravel()), ref
 
     def centrelines(self, q, per_segment=8):
         """Per yarn: points (m, 3), unit tangents (m, 3) and curvature (m,) sampled
@@ -307,18 +363,12 @@ class BSplineModel:
             out.append((r, a / speed[:, None], kappa))
         return out
 
-    def reduced_energy(self, y):
-        """Energy, gradient with respect to y, reference force size."""
-        Z, _ = self.reduction()
-        E, g, ref = self.energy(self.control_points(y))
-        return E, Z.T @ g.ravel(), ref
-
     def masses(self):
         """Positive lumped masses of the reduced coordinates (n_free,): the
-        control points' lumped masses, summed over the points each coordinate
-        moves (weighted by how much)."""
+        control points' lumped masses (of the unstretched yarn), summed over
+        the points each coordinate moves (weighted by how much)."""
         Z, _ = self.reduction()
-        m = energy.lumped_masses(self.seg, self.rest, self.rho, self.quad, self.n)
+        m = energy.lumped_masses(self.seg, self.rest0, self.rho, self.quad, self.n)
         return abs(Z).T @ np.repeat(m, 3)
 
 

@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from ..bspline import BSplineModel, Yarn, curve, relax_dynamic, relax_static
+from ..bspline import BSplineModel, Yarn, curve, relax_dynamic, relax_static, stability
 from ..geometry import planar_elastica
 from ..threads import threads_for
 from .srod import SRod
@@ -32,9 +32,10 @@ _RELAX = {"static": relax_static, "dynamic": relax_dynamic}
 class BSplineSample:
     c_over_L: float
     max_abs_z_over_L: float
-    stable: bool
+    stable: bool                      # measured: lowest eigenvalue of the reduced Hessian
     control: np.ndarray = field(repr=False, default=None)
     iterations: int = 0
+    lowest_eigenvalue: float = float("nan")
 
 
 @dataclass
@@ -104,6 +105,7 @@ class _Marcher:
         start[:, 2] += self.bump
         result = self.relax(self.model, self.model.reduce(start), rtol=self.rtol)
         q = self.model.control_points(result.y)
+        self.last_stability = stability.stability(self.model, result.y)
         return q, max_height(q) / L, result.iterations
 
 
@@ -143,7 +145,8 @@ def _sweep(march, grid, q, threshold, bar):
     samples, last_planar = [], None
     for c in grid:
         q, z, its = march.at(c, q)
-        samples.append(BSplineSample(float(c), z, True, q, its))
+        stable, lowest = march.last_stability
+        samples.append(BSplineSample(float(c), z, stable, q, its, lowest))
         bar.step(c, z)
         if z <= threshold:
             last_planar = (c, q)

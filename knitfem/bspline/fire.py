@@ -1,0 +1,106 @@
+"""FIRE: the accelerated relaxation (Bitzek et al. 2006; FIRE 2.0, Guénolé et al. 2020).
+
+Damped dynamics that steers the velocity toward the force, v <- (1 - a) v +
+a |v| F/|F|, lengthens the step while the power P = F . v stays positive and
+stops dead (v = 0, shorter step, half a step back) when it turns negative.
+On the same energy as dynamic relaxation, with fictitious masses: each
+coordinate's mass is the absolute row sum of the Hessian (Gershgorin, so the
+explicit step 1 is stable for every mode at once) instead of the yarn's
+mass, which evens out the stiff stretching and the soft sliding and bending
+of a knit.  The masses are refreshed when the step has had to shrink
+``refresh`` times (the contact stiffness grows as yarns press in).  Only the
+end state matters, so neither the masses nor the path are physical.
+"""
+import time
+
+import numpy as np
+
+from .relax import Relaxed, RelaxationError, converged, progress_bar
+
+
+def gershgorin_masses(model, y, floor=1e-12):
+    """Absolute row sums of the (projected) reduced Hessian at y: with these
+    masses the explicit step 1 is stable (eigenvalues of M^-1 K <= 1... 4)."""
+    H = model.reduced_hessian(y, project=True)
+    m = np.asarray(abs(H).sum(axis=1)).ravel()
+    return np.maximum(m, floor * m.max())
+
+
+def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20,
+               f_inc=1.1, f_dec=0.5, a_start=0.25, f_a=0.99, refresh=20, check_every=20,
+               max_move=None, max_time=None, progress=False, monitor=None):
+    """FIRE 2.0 to a relative residual ``rtol`` (:func:`.relax.converged`);
+    :class:`Relaxed` (method "fire") or :class:`RelaxationError` with the
+    last state after ``max_steps`` or ``max_time`` seconds.  dt in units of
+    the Gershgorin step (1 is stable); max_move: largest control-point move
+    per step (default r/4 of the contact law: no yarn jumps through another
+    between two force evaluations; the velocity is scaled down to keep it);
+    monitor(step, y, residual, E, ke) at every check."""
+    start = time.perf_counter()
+    y = np.asarray(y0, float).copy()
+    if max_move is None:
+        contact = getattr(model, "contact", None)
+        max_move = 0.25 * contact.radius if contact is not None else np.inf
+    Z, _ = model.reduction()
+    capped = refreshes = 0
+    m = gershgorin_masses(model, y)
+    v = np.zeros_like(y)
+    dt, a = 0.5 * dt_max, a_start
+    n_pos = 0
+    cuts = 0
+    history = []
+    bar = progress_bar(progress, max_steps, "FIRE")
+    E, g, ref = model.reduced_energy(y)
+    try:
+        for step in range(1, max_steps + 1):
+            F = -g
+            P = F @ v
+            if P > 0:
+                n_pos += 1
+                if n_pos > n_delay:
+                    dt = min(dt * f_inc, dt_max)
+                    a *= f_a
+            else:
+                n_pos = 0
+                if step > n_delay:
+                    dt *= f_dec
+                    a = a_start
+                    cuts += 1
+                y -= 0.5 * dt * v                   # half a step back, then stop
+                v[:] = 0.0
+                if cuts >= refresh:                 # stiffer than when the masses were set
+                    m = gershgorin_masses(model, y)
+                    dt, cuts = 0.5 * dt_max, 0
+                    refreshes += 1
+            v += dt * F / m
+            vn, fn = np.sqrt(v @ (m * v)), np.sqrt(F @ (F / m))
+            if P > 0 and fn > 0:
+                v = (1.0 - a) * v + a * (vn / fn) * (F / m)
+            move = dt * np.sqrt(np.max(((Z @ v).reshape(-1, 3) ** 2).sum(axis=1)))
+            if move > max_move:
+                v *= max_move / move
+                capped += 1
+            y += dt * v
+            E, g, ref = model.reduced_energy(y)
+            if not np.isfinite(E):
+                raise RelaxationError(f"FIRE diverged at step {step}", y - dt * v, history)
+            if step % check_every == 0 or converged(g, ref, rtol, model):
+                r = float(np.linalg.norm(g) / ref)
+                history.append(r)
+                ke = 0.5 * float(v @ (m * v))
+                if monitor is not None:
+                    monitor(step, y, r, E, ke)
+                if bar is not None:
+                    bar.update(check_every)
+                    bar.set_postfix(residual=f"{r:.1e}", dt=f"{dt:.2f}")
+                if converged(g, ref, rtol, model):
+                    return Relaxed(y, step, r, E, "fire", history, dt, v,
+                                   report={"capped_steps": capped, "mass_refreshes": refreshes})
+                if max_time is not None and time.perf_counter() - start > max_time:
+                    raise RelaxationError(f"FIRE reached its time limit {max_time:.0f} s at "
+                                          f"step {step}, relative residual {r:.2e}", y, history)
+    finally:
+        if bar is not None:
+            bar.close()
+    raise RelaxationError(f"FIRE did not reach relative residual {rtol:.1e} in {max_steps} "
+                          f"steps (last {history[-1]:.2e})", y, history)

@@ -1,0 +1,204 @@
+"""The elastic energy density of a yarn at one Gauss point (numba).
+
+In terms of the curve's derivatives in its segment parameter, a = r',
+b = r'', d = r''' (d is constant on a cubic segment), with kappa = |a x b| /
+|a|^3 and tau = (a x b) . d / |a x b|^2:
+
+    e = EA/2 (|a|/l - 1)^2 l w                      stretching (l: rest speed)
+      + EI/2 (kappa - kappa0)^2 |a| w               bending
+      + EI/2 (tau - tau0)^2 |a| w                   torsion (naturally curved yarns)
+
+with its exact first and second derivatives in (a, b, d).  The bending term
+is expanded as kappa^2 |a| - 2 kappa0 kappa |a| + kappa0^2 |a| = |a x b|^2 |a|^-5
+- 2 kappa0 |a x b| |a|^-2 + kappa0^2 |a|, each a product of simple factors.
+"""
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def cross(u, v):
+    return np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                     u[0] * v[1] - u[1] * v[0]])
+
+
+@njit(cache=True)
+def skew(c):
+    """[c]x with [c]x v = c x v."""
+    out = np.zeros((3, 3))
+    out[0, 1], out[0, 2], out[1, 2] = -c[2], c[1], -c[0]
+    out[1, 0], out[2, 0], out[2, 1] = c[2], -c[1], c[0]
+    return out
+
+
+@njit(cache=True)
+def _sym(u, v):
+    return np.outer(u, v) + np.outer(v, u)
+
+
+@njit(cache=True)
+def energy(a, b, d, l, EA, EI, k0, t0, curved, w, hessian, project, H):
+    """Energy of one Gauss point and its derivatives with respect to a, b, d:
+    returns (e, e_a, e_b, e_d); with ``hessian`` fills H (9, 9) (rows/cols a,
+    b, d).  ``project`` replaces H by its positive semi-definite part
+    (negative eigenvalues set to 0: compressive stretching, the curvature
+    and torsion terms are not convex)."""
+    a2 = a @ a
+    na = np.sqrt(a2)
+    ah = a / na
+    strain = na / l - 1.0
+    e = 0.5 * EA * strain * strain * l * w
+    e_a = EA * strain * w * ah
+    e_b = np.zeros(3)
+    e_d = np.zeros(3)
+    if hessian:
+        eye = np.eye(3)
+        H[:, :] = 0.0
+        H[:3, :3] += EA * w * (np.outer(ah, ah) / l + strain / na * (eye - np.outer(ah, ah)))
+    kb = 0.5 * EI * w
+    if kb != 0.0:
+        c = cross(a, b)
+        F = c @ c
+        G = a2 ** -2.5
+        F_a, F_b = 2.0 * cross(b, c), 2.0 * cross(c, a)
+        G_a = -5.0 * a2 ** -3.5 * a
+        if hessian:
+            F_aa = 2.0 * ((b @ b) * eye - np.outer(b, b))
+            F_bb = 2.0 * (a2 * eye - np.outer(a, a))
+            F_ab = 2.0 * (np.outer(a, b) - (a @ b) * eye - skew(c))
+        # kappa^2 |a| = F G
+        e += kb * F * G
+        e_a += kb * (F_a * G + F * G_a)
+        e_b += kb * F_b * G
+        if hessian:
+            G_aa = 35.0 * a2 ** -4.5 * np.outer(a, a) - 5.0 * a2 ** -3.5 * eye
+            H[:3, :3] += kb * (F_aa * G + _sym(F_a, G_a) + F * G_aa)
+            H[:3, 3:6] += kb * (F_ab * G + np.outer(G_a, F_b))
+            H[3:6, :3] += kb * (F_ab.T * G + np.outer(F_b, G_a))
+            H[3:6, 3:6] += kb * F_bb * G
+        if k0 != 0.0:
+            # kappa0^2 |a|
+            e += kb * k0 * k0 * na
+            e_a += kb * k0 * k0 * ah
+            if hessian:
+                H[:3, :3] += kb * k0 * k0 * (eye - np.outer(ah, ah)) / na
+        P = np.sqrt(F)
+        if k0 != 0.0 and P > 1e-14 * a2:
+            # -2 kappa0 kappa |a| = -2 kappa0 P Q, P = |a x b|, Q = |a|^-2 (skipped at the
+            # cone tip P = 0, where the yarn is straight: a maximum of -P)
+            Q = 1.0 / a2
+            P_a, P_b = F_a / (2.0 * P), F_b / (2.0 * P)
+            Q_a = -2.0 * a / (a2 * a2)
+            m = -2.0 * kb * k0
+            e += m * P * Q
+            e_a += m * (P_a * Q + P * Q_a)
+            e_b += m * P_b * Q
+            if hessian:
+                P_aa = F_aa / (2.0 * P) - np.outer(F_a, F_a) / (4.0 * P ** 3)
+                P_ab = F_ab / (2.0 * P) - np.outer(F_a, F_b) / (4.0 * P ** 3)
+                P_bb = F_bb / (2.0 * P) - np.outer(F_b, F_b) / (4.0 * P ** 3)
+                Q_aa = -2.0 * eye / (a2 * a2) + 8.0 * np.outer(a, a) / (a2 * a2 * a2)
+                H[:3, :3] += m * (P_aa * Q + _sym(P_a, Q_a) + P * Q_aa)
+                H[:3, 3:6] += m * (P_ab * Q + np.outer(Q_a, P_b))
+                H[3:6, :3] += m * (P_ab.T * Q + np.outer(P_b, Q_a))
+                H[3:6, 3:6] += m * P_bb * Q
+        if curved and F > 1e-14 * a2 * a2:
+            # (tau - t0)^2 |a|, tau = T / F with T = (a x b) . d
+            T = c @ d
+            Tx = np.concatenate((cross(b, d), cross(d, a), c))
+            Fx = np.concatenate((F_a, F_b, np.zeros(3)))
+            nx = np.concatenate((ah, np.zeros(6)))
+            f = T / F - t0
+            tx = Tx / F - T * Fx / (F * F)
+            grad = kb * (2.0 * f * tx * na + f * f * nx)
+            e += kb * f * f * na
+            e_a += grad[:3]
+            e_b += grad[3:6]
+            e_d += grad[6:]
+            if hessian:
+                Txy = np.zeros((9, 9))
+                Txy[:3, 3:6] = -skew(d)
+                Txy[:3, 6:] = skew(b)
+                Txy[3:6, 6:] = -skew(a)
+                Txy += Txy.T
+                Fxy = np.zeros((9, 9))
+                Fxy[:3, :3] = F_aa
+                Fxy[:3, 3:6] = F_ab
+                Fxy[3:6, :3] = F_ab.T
+                Fxy[3:6, 3:6] = F_bb
+                txy = (Txy / F - _sym(Tx, Fx) / (F * F) - T * Fxy / (F * F)
+                       + 2.0 * T * np.outer(Fx, Fx) / F ** 3)
+                nxy = np.zeros((9, 9))
+                nxy[:3, :3] = (eye - np.outer(ah, ah)) / na
+                H[:, :] += kb * (2.0 * np.outer(tx, tx) * na + 2.0 * f * txy * na
+                                 + 2.0 * f * _sym(tx, nx) + f * f * nxy)
+    if hessian and project:
+        lam, V = np.linalg.eigh(0.5 * (H + H.T))
+        H[:, :] = (V * np.maximum(lam, 0.0)) @ V.T
+    return e, e_a, e_b, e_d
+
+
+# -- the same energy and gradient without the Hessian, on 3-tuples (no heap
+# allocation: this is the hot loop of every relaxation step) ----------------------
+
+@njit(cache=True, inline="always")
+def _dot(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+@njit(cache=True, inline="always")
+def _x(u, v):
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+@njit(cache=True, inline="always")
+def _axpy(alpha, u, v):
+    """alpha u + v."""
+    return (alpha * u[0] + v[0], alpha * u[1] + v[1], alpha * u[2] + v[2])
+
+
+@njit(cache=True)
+def gradient(a, b, d, l, EA, EI, k0, t0, curved, w):
+    """:func:`energy` without the Hessian, for 3-tuples a, b, d: returns
+    (e, e_a, e_b, e_d) with tuple derivatives."""
+    zero = (0.0, 0.0, 0.0)
+    a2 = _dot(a, a)
+    na = np.sqrt(a2)
+    strain = na / l - 1.0
+    e = 0.5 * EA * strain * strain * l * w
+    e_a = _axpy(EA * strain * w / na, a, zero)
+    e_b = zero
+    e_d = zero
+    kb = 0.5 * EI * w
+    if kb == 0.0:
+        return e, e_a, e_b, e_d
+    c = _x(a, b)
+    F = _dot(c, c)
+    G = a2 ** -2.5
+    F_a = _x(b, c)                    # half of dF/da
+    F_b = _x(c, a)                    # half of dF/db
+    e += kb * F * G
+    e_a = _axpy(2.0 * kb * G, F_a, _axpy(-5.0 * kb * F * a2 ** -3.5, a, e_a))
+    e_b = _axpy(2.0 * kb * G, F_b, e_b)
+    if k0 != 0.0:
+        e += kb * k0 * k0 * na
+        e_a = _axpy(kb * k0 * k0 / na, a, e_a)
+        P = np.sqrt(F)
+        if P > 1e-14 * a2:
+            m = -2.0 * kb * k0
+            Q = 1.0 / a2
+            e += m * P * Q
+            # P_a = F_a / P (F_a is half of dF/da), Q_a = -2 a / a2^2
+            e_a = _axpy(m * Q / P, F_a, _axpy(-2.0 * m * P / (a2 * a2), a, e_a))
+            e_b = _axpy(m * Q / P, F_b, e_b)
+    if curved and F > 1e-14 * a2 * a2:
+        T = _dot(c, d)
+        f = T / F - t0
+        # tau_x = T_x / F - T F_x / F^2, T_a = b x d, T_b = d x a, T_d = c, F_x = 2 (F_a, F_b, 0)
+        k = 2.0 * kb * f * na
+        e += kb * f * f * na
+        e_a = _axpy(k / F, _x(b, d), _axpy(-2.0 * k * T / (F * F), F_a,
+                                           _axpy(kb * f * f / na, a, e_a)))
+        e_b = _axpy(k / F, _x(d, a), _axpy(-2.0 * k * T / (F * F), F_b, e_b))
+        e_d = _axpy(k / F, c, e_d)
+    return e, e_a, e_b, e_d
