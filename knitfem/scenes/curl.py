@@ -73,9 +73,15 @@ def lowest_scaled_eigenvalue(H):
     return float(lowest_eigenvalues(S, 1)[0])
 
 
-def curl(scene, *, out=None, render=True, progress=True, resume=False):
+def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_options=None):
     """Relax the :class:`FabricScene` ``scene`` and classify its curl; returns the
-    summary dict (see the README's fabric section for the keys)."""
+    summary dict (see the README's fabric section for the keys).
+
+    ``relax_options``: keyword arguments of :func:`relax_fabric` (budgets,
+    tolerances).  A failed relaxation returns ``"curl": None`` and
+    ``"converged": False`` with the error; the shape of the last equilibrium
+    (at homotopy ``lam`` < 1, not the swatch's answer) is kept apart under
+    ``"last_equilibrium"``."""
     from ..analysis.curl import swatch_curl
     t0 = time.perf_counter()
     model, swatch, info = build(scene)
@@ -120,7 +126,8 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False):
         done = []
     failure = None
     try:
-        eq = relax_fabric(model, homotopy, progress=on_step, checkpoint=on_increment, **kwargs)
+        eq = relax_fabric(model, homotopy, progress=on_step, checkpoint=on_increment, **kwargs,
+                          **(relax_options or {}))
     except FabricRelaxationError as err:
         failure = err
     finally:
@@ -133,13 +140,18 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False):
     shape = swatch_curl(eq.state.x, swatch)
     from ..beam.energy import EnergyProblem
     H = EnergyProblem(model, 1.0).evaluate(eq.state, True)[2]
-    summary = {
-        "nw": scene.nw, "nc": scene.nc, "model": "beam", "alpha": scene.alpha,
+    fields_ = {
         "curl": shape.curl, "edges_touch": bool(shape.edges_touch),
         "roll_deg": {k: float(v) for k, v in shape.roll_deg.items()},
         "curvature_x": shape.curvature_x, "curvature_y": shape.curvature_y,
         "height_over_width": shape.height_over_width, "height": shape.height,
-        "loop_aspect": shape.loop_aspect,
+        "loop_aspect": shape.loop_aspect}
+    if failure is not None:
+        # a half-relaxed swatch is not the answer: its shape is kept, labelled
+        fields_ = {"last_equilibrium": dict(fields_, lam=failure.lam),
+                   **{k: None for k in fields_}}
+    summary = {
+        "nw": scene.nw, "nc": scene.nc, "model": "beam", "alpha": scene.alpha, **fields_,
         "converged": bool(eq.converged), "residual": eq.residual, "stable": bool(eq.stable),
         "negative_eigenvalues": eq.negative_eigenvalues,
         "lowest_eigenvalue": lowest_scaled_eigenvalue(H),
@@ -170,7 +182,9 @@ def _write_outputs(out, model, eq, summary, frames, render):
         for view, direction in VIEWS.items():
             render_rods(out / f"{name}_{view}.png", mesh, radius, scalars="curvature",
                         view=direction, title=f"{summary['nw']} x {summary['nc']}: "
-                        f"{summary['curl']} curl ({view})",
+                        + (f"{summary['curl']} curl ({view})" if summary["curl"] else
+                           f"NOT RELAXED, lam = {summary['last_equilibrium']['lam']:.3g} "
+                           f"({view})"),
                         camera_up=(0, 1, 0) if view == "front" else (0, 0, 1))
     (out / f"{name}.json").write_text(json.dumps(summary, indent=2))
 

@@ -45,11 +45,17 @@ def _yarn_fits(v):
                f"{fmt(v.radius)} (tighter bends than the yarn)", v.c)
 
 
+def _resume_needs_out(v):
+    if getattr(v, "resume", False) and not getattr(v, "out", None):
+        refuse("--resume", "needs --out (the folder holding the checkpoint)", True)
+
+
 _NO_TWIST = ("model", "beam", "the bspline model has no torsional stiffness (no twist energy)")
 
 OPTIONS = OptionSet(
-    Integer("--nw", 10, "[2, 200]", help="wales N_w"),
-    Integer("--nc", 35, "[2, 200]", help="courses N_c"),
+    # the curl classification needs 3 wales and 4 courses of loop centres
+    Integer("--nw", 10, "[3, 200]", help="wales N_w"),
+    Integer("--nc", 35, "[4, 200]", help="courses N_c"),
     Real("--alpha", 0.2, "[0, 0.5]", help="pre-stretch ratio: rest length (1 - alpha) x knitted"),
     Real("--w", 4.0, "(0, 1000]", help="wale length (loop width), mm"),
     Real("--c", 3.0, "(0, 1000]", help="course length (loop height), mm"),
@@ -62,6 +68,7 @@ OPTIONS = OptionSet(
     Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
          help="bind-off stiffness relative to the yarn's"),
     Check(_yarn_fits),
+    Check(_resume_needs_out),
     Budget("memory", memory, ("--nw", "--nc", "--elements-per-loop")),
     Budget("run time", seconds, ("--nw", "--nc", "--elements-per-loop")),
 )
@@ -96,8 +103,6 @@ def run(args):
     """Run the validated ``curl`` command; exit code 0, or 3 when the relaxation failed
     (the summary, with its error, is still written)."""
     from ..cli import run_folder, write_summary
-    if args.resume and not args.out:
-        refuse("--resume", "needs --out (the folder holding the checkpoint)", True)
     with run_folder(args):
         if args.model == "bspline":
             from .curl_bspline import bspline_curl_from_options
@@ -112,6 +117,8 @@ def run(args):
                                 friction=args.friction)
             summary = curl(scene, out=args.out, render=not args.no_render,
                            progress=not args.quiet, resume=args.resume)
-        write_summary(args, summary, f"{summary['curl']} curl, converged "
-                      f"{summary['converged']}, stable {summary['stable']}; wrote {args.json}")
+        verdict = f"{summary['curl']} curl" if summary["curl"] is not None else \
+            f"relaxation failed: {summary['error']}"
+        write_summary(args, summary, f"{verdict}, converged {summary['converged']}, "
+                      f"stable {summary['stable']}; wrote {args.json}")
     return 0 if summary.get("error") is None else 3

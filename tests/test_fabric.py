@@ -1,0 +1,74 @@
+"""The fabric scene and its relaxation (knitfem.scenes.fabric, fabric_relax, curl)."""
+import json
+
+import numpy as np
+import pytest
+
+from knitfem.beam.energy import EnergyProblem
+from knitfem.scenes.fabric import FabricScene, Homotopy, build
+from knitfem.scenes import fabric_relax
+
+
+def test_knitted_shape_is_an_equilibrium_at_the_start_of_the_homotopy():
+    """At lam = 0 the natural strains are the knitted shape's and the yarns
+    start clear of the contact skin: the residual is round-off (below the
+    relaxation's tolerance 1e-8 of the force scale; measured 5e-10) and no
+    contact carries load; the first homotopy step is far from equilibrium."""
+    scene = FabricScene(3, 3)
+    model, swatch, info = build(scene)
+    assert info["start_gap_over_d"] >= scene.regularisation
+    Homotopy(model, scene.alpha).apply(0.0)
+    problem = EnergyProblem(model, 1.0)
+    state = model.initial_state()
+    assert problem.residual(problem.evaluate(state, False)[1]) < 1e-8
+    assert model.contact_report(state).active_pairs == 0
+    Homotopy(model, scene.alpha).apply(0.05)
+    assert problem.residual(problem.evaluate(state, False)[1]) > 1e-3
+
+
+def _first_steps(scene, iterations=15):
+    model, swatch, info = build(scene)
+    homotopy = Homotopy(model, scene.alpha)
+    homotopy.apply(0.05)
+    result, _ = fabric_relax._round(model, model.initial_state(), 0.05, 1e-8, iterations)
+    return model, result
+
+
+def test_scaling_all_stiffnesses_together_leaves_the_shape_unchanged():
+    """EI, GJ, EA, the penalty and the ties all scale with the scene's EI, and
+    the minimiser is scale-free (Marquardt scaling, relative residual, step
+    limit in lengths): the first 15 steps of the relaxation with EI x 7.3 go
+    through the same positions (1e-8 mm) and residuals (1e-8 relative)."""
+    _, a = _first_steps(FabricScene(3, 3))
+    _, b = _first_steps(FabricScene(3, 3, EI=7.3))
+    assert a.iterations == b.iterations == 15
+    assert np.abs(a.state.x - b.state.x).max() < 1e-8
+    assert abs(a.residual - b.residual) <= 1e-8 * a.residual
+
+
+def test_a_failed_relaxation_says_so_and_keeps_its_last_equilibrium(tmp_path):
+    """A relaxation that runs out of budget (one minimisation step per round)
+    is reported as such: ``converged`` False, the error naming where it
+    failed, no curl claimed (the half-relaxed shape kept apart, labelled with
+    its homotopy lam), and the state written (.vtu, JSON) for inspection."""
+    from knitfem.scenes.curl import curl
+    summary = curl(FabricScene(3, 4), out=tmp_path, render=False, progress=False,
+                   relax_options=dict(iterations=1, max_rounds=1, dlam_min=0.05))
+    assert summary["converged"] is False and summary["curl"] is None
+    assert "relaxation failed near homotopy lam" in summary["error"]
+    assert summary["last_equilibrium"]["lam"] == 0.0
+    assert summary["last_equilibrium"]["curl"] in ("flat", "side", "double", "top_bottom")
+    written = json.loads((tmp_path / "curl_3x4.json").read_text())
+    assert written["error"] == summary["error"] and (tmp_path / "curl_3x4.vtu").exists()
+
+
+def test_curl_command_refuses_bad_options_in_one_line(capsys):
+    from knitfem.cli import main
+    for argv, flag in ((["curl", "--nw", "0"], "--nw"), (["curl", "--alpha", "0.9"], "--alpha"),
+                       (["curl", "--radius", "0.6"], "--radius"),
+                       (["curl", "--friction", "nan"], "--friction"),
+                       (["curl", "--nw", "3", "--nc", "4", "--resume"], "--resume"),
+                       (["curl", "--nw", "55", "--nc", "35"], "--no-limits")):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and flag in err
