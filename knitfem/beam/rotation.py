@@ -198,7 +198,9 @@ def rotation_vector(q):
     s = np.linalg.norm(v, axis=1, keepdims=True)
     small = s < 1e-8
     # 2 atan2(s, w) / s, with its limit 2/w (1 - s^2/(3 w^2)) where s is tiny
-    factor = np.where(small, 2.0 / w * (1.0 - s**2 / (3.0 * w**2)),
+    # (np.where evaluates both: w is ~1 where s is tiny, but may be 0 at a half turn)
+    ws = np.where(small, w, 1.0)
+    factor = np.where(small, 2.0 / ws * (1.0 - s**2 / (3.0 * ws**2)),
                       2.0 * np.arctan2(s, w) / np.where(small, 1.0, s))
     return factor * v
 

@@ -69,7 +69,7 @@ class FabricScene:
     penalty: float = 1000.0
     regularisation: float = 0.05
     per_diameter: int = 12
-    slip: float = 1e-3              # friction's stick slip, fraction of the radius
+    slip: float = 0.02              # friction's stick slip, fraction of the radius
     ties: bool = True
     EI: float = 1.0                 # N mm^2 (nominal: only ratios matter)
 

@@ -126,7 +126,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
 
 
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-5, dlam=0.1,
-                 dlam_max=0.25, dlam_min=1e-3, iterations=25, max_rounds=8, creep=None,
+                 dlam_max=0.25, dlam_min=1e-3, iterations=200, max_rounds=4, creep=None,
                  progress=None, checkpoint=None):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
     to lam = 1 (see the module docstring).
