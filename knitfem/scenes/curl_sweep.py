@@ -86,8 +86,8 @@ def curl_point(params, out_dir):
     ``params["model"]`` ("bspline" or "beam") and the curl options
     ``params["curl"]`` (dict, keys :data:`BSPLINE_OPTIONS` / :data:`BEAM_OPTIONS`);
     writes ``curl.vtu`` (the relaxed yarns), ``curl.json`` (the model's full
-    summary) and, B-spline, ``curl_control.npy`` (its control points) into ``out_dir``.  Returns the curl, the signed edge rolls (deg),
-    curvatures (1/mm), centre height H (mm) and H/W, relaxed loop aspect w/c,
+    summary) and, B-spline, ``curl_control.npy`` (its control points) into
+    ``out_dir``.  Returns the curl, the signed edge rolls (deg), curvatures (1/mm), centre height H (mm) and H/W, relaxed loop aspect w/c,
     converged / residual / stable and the relaxation's message.  Raises
     :class:`CurlFailed` when the beam relaxation fails (the sweep records the
     point as failed)."""

@@ -93,20 +93,20 @@ def _counts(rows):
 def phase_diagram(rows, title=None):
     """The phase diagram figure (fig, ax) over N_w (x) and N_c (y)."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.4, 5.0))
+    fig, ax = plt.subplots(figsize=(8.6, 5.0))
     scatter_points(ax, rows, lambda r: r["nw"], lambda r: r["nc"], size=90)
     nc_max = max(r["nc"] for r in rows)
     nw_max = max(r["nw"] for r in rows)
     top = 1.1 * max(nc_max, nw_max / BOUNDARY)
     nc_line = np.array([0.0, top])
     ax.plot(BOUNDARY * nc_line, nc_line, "k--", lw=1.0,
-            label=f"experiment: $N_w/N_c$ = {BOUNDARY:g} (side curl above-left)")
+            label=f"experiment: $N_w/N_c$ = {BOUNDARY:g}\n(side curl above-left)")
     ax.set_xlim(0, 1.08 * nw_max + 2)
     ax.set_ylim(0, 1.08 * nc_max + 2)
     ax.set_xlabel("$N_w$ (wales)")
     ax.set_ylabel("$N_c$ (courses)")
     ax.set_title(title or f"Curl phase diagram ({_counts(rows)})", fontsize=10)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)
     fig.tight_layout()
     return fig, ax
 
@@ -120,21 +120,22 @@ def plot_phase_diagram(rows, path, title=None):
 def phase_trends(rows, knitted_aspect=None):
     """H and loop aspect w/c against N_w/N_c (fig, (ax_H, ax_aspect))."""
     plt = _plt()
-    fig, (ax_h, ax_a) = plt.subplots(1, 2, figsize=(10.0, 4.2))
+    fig, (ax_h, ax_a) = plt.subplots(1, 2, figsize=(11.0, 4.6))
     ratio = lambda r: r["nw"] / r["nc"]                                  # noqa: E731
     scatter_points(ax_h, rows, ratio, lambda r: r.get("height"))
     scatter_points(ax_a, rows, ratio, lambda r: r.get("loop_aspect"))
     if knitted_aspect is not None:
         ax_a.axhline(knitted_aspect, color="0.3", lw=0.8, ls=":", label="knitted w/c")
     for ax in (ax_h, ax_a):
-        ax.axvline(BOUNDARY, color="k", ls="--", lw=0.8)
+        ax.axvline(BOUNDARY, color="k", ls="--", lw=0.8,
+                   label=f"experiment: boundary {BOUNDARY:g}")
         ax.set_xlabel("$N_w / N_c$")
         ax.legend(fontsize=7)
     ax_h.set_ylabel("centre height H (mm, swatch laid knit face down)")
     ax_a.set_ylabel("relaxed loop aspect w/c (central loops)")
     ax_h.set_title("H vs $N_w/N_c$ (Fig. 2a analogue)", fontsize=10)
     ax_a.set_title("loop aspect vs $N_w/N_c$ (Fig. 2b analogue)", fontsize=10)
-    fig.suptitle(_counts(rows), fontsize=9)
+    fig.suptitle(f"{_counts(rows)} (failed points have no H or w/c)", fontsize=9)
     fig.tight_layout()
     return fig, (ax_h, ax_a)
 
