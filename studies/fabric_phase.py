@@ -31,15 +31,14 @@ import os
 import sys
 import time
 
-from knitfem.interrupt import interruptible, interruption
 from knitfem.io import write_json
 from knitfem.io.run import RunFolder
-from knitfem.options import Check, Integer, OptionError, OptionSet, Real, refuse
+from knitfem.options import Check, Integer, OptionSet, Real, refuse
 from knitfem.scenes import curl_command
 from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS, MODELS, phase_sweep
 from knitfem.scenes.phase_output import plot_phase_diagram, plot_phase_trends, point_state, \
     write_phase_csv
-from knitfem.sweep import SWEEP_OPTIONS, add_sweep_options
+from knitfem.sweep import add_sweep_options, parse_study, sweep_main
 
 NW = (5, 10, 15, 20, 25, 30, 40, 55)
 NC = (5, 10, 15, 20, 25, 30, 35)
@@ -109,14 +108,7 @@ def parse(argv):
     parser.add_argument("--model", choices=MODELS, default="bspline",
                         help="bspline: the paper's B-spline yarns (default); beam: the "
                              "Simo-Reissner beam scene")
-    OPTIONS.add_to(parser)
-    args = parser.parse_args(argv)
-    try:
-        OPTIONS.validate(args)
-        SWEEP_OPTIONS.validate(args)
-    except OptionError as err:
-        parser.exit(2, f"fabric_phase: error: {err}\n")
-    return args
+    return parse_study("fabric_phase", parser, OPTIONS, argv)
 
 
 def curl_options(args):
@@ -182,20 +174,7 @@ def run(args):
 
 
 def main(argv=None):
-    args = parse(argv)
-    with interruptible():
-        try:
-            return run(args)
-        except ValueError as err:                      # e.g. --resume on another sweep
-            print(f"fabric_phase: error: {err}", file=sys.stderr)
-            return 2
-        except BaseException as err:
-            stop = interruption(err)
-            if stop is None:
-                raise
-            print(f"fabric_phase: interrupted by {stop.signal_name}; finished points are in "
-                  f"{args.out}/points (run again with --resume)", file=sys.stderr)
-            return stop.exit_code
+    return sweep_main("fabric_phase", run, parse(argv))
 
 
 if __name__ == "__main__":
