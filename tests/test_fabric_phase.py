@@ -77,7 +77,7 @@ def test_a_failed_beam_relaxation_is_a_failed_point_not_a_curl(tmp_path, monkeyp
 
     for fake, text in ((returns_error, "lam = 0.3"), (raises, "lam = 0.1")):
         monkeypatch.setattr(beam_curl, "curl", fake)
-        rows, sweep = phase_sweep([2], [2], tmp_path / fake.__name__, model="beam",
+        rows, sweep = phase_sweep([3], [4], tmp_path / fake.__name__, model="beam",
                                   options={"alpha": 0.2}, workers=0, progress=False)
         assert sweep.records[0]["status"] == "failed"
         assert "FabricRelaxationError" in rows[0]["error"] and text in rows[0]["error"]
@@ -203,8 +203,8 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     (["--nw", "5,x"], "--nw must be a comma-separated list of different integers in [3, 200]"),
     (["--nc", "3"], "--nc must be a comma-separated list of different integers in [4, 200]"),
     (["--nc", "5,5"], "--nc must be a comma-separated list"),
-    (["--model", "beam", "--nw", "1"], "--nw must be a comma-separated list of different "
-                                       "integers in [2, 200]"),
+    (["--model", "beam", "--nw", "2"], "--nw must be a comma-separated list of different "
+                                       "integers in [3, 200]"),
     (["--max-time", "0"], "--max-time must be a number in (0, 1e+06]"),
     (["--model", "beam", "--max-time", "10"], "--max-time does not apply to --model beam"),
     (["--friction", "0.3"], "--friction does not apply to --model bspline"),
