@@ -39,6 +39,7 @@ bench: $(STAMP)
 	$(VENV)/bin/python studies/bench_beam.py --out $(OUT)/bench_beam
 	$(VENV)/bin/python studies/bench_popup.py --out $(OUT)/bench_popup
 	$(VENV)/bin/python studies/bench_contact.py --out $(OUT)/bench_contact
+	$(VENV)/bin/python studies/bench_fabric_phase.py --out $(OUT)/fabric_phase_bench
 
 # optional: knitfem vs PyElastica on the S-rod (the `elastica` extra, in its own venv so
 # that PyElastica's pins never touch the main one)

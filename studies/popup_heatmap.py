@@ -18,13 +18,12 @@ import time
 
 import numpy as np
 
-from knitfem.interrupt import interruptible, interruption
 from knitfem.io import write_json
 from knitfem.io.run import RunFolder
-from knitfem.options import Integer, OptionError, OptionSet, Real
+from knitfem.options import Integer, OptionSet, Real
 from knitfem.scenes.popup_output import plot_heat_map
 from knitfem.scenes.popup_sweep import heat_map
-from knitfem.sweep import SWEEP_OPTIONS, add_sweep_options
+from knitfem.sweep import add_sweep_options, parse_study, sweep_main
 
 OPTIONS = OptionSet(
     Integer("--nw", 12, "[1, 1000]", help="w/L values in [0.05, 0.50]"),
@@ -36,14 +35,7 @@ OPTIONS = OptionSet(
 def parse(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     add_sweep_options(parser, out_default="studies/results/popup_heatmap")
-    OPTIONS.add_to(parser)
-    args = parser.parse_args(argv)
-    try:
-        OPTIONS.validate(args)
-        SWEEP_OPTIONS.validate(args)
-    except OptionError as err:
-        parser.exit(2, f"popup_heatmap: error: {err}\n")
-    return args
+    return parse_study("popup_heatmap", parser, OPTIONS, argv)
 
 
 def run(args):
@@ -73,20 +65,7 @@ def run(args):
 
 
 def main(argv=None):
-    args = parse(argv)
-    with interruptible():
-        try:
-            return run(args)
-        except ValueError as err:                      # e.g. --resume on another sweep
-            print(f"popup_heatmap: error: {err}", file=sys.stderr)
-            return 2
-        except BaseException as err:
-            stop = interruption(err)
-            if stop is None:
-                raise
-            print(f"popup_heatmap: interrupted by {stop.signal_name}; finished columns are in "
-                  f"{args.out}/points (run again with --resume)", file=sys.stderr)
-            return stop.exit_code
+    return sweep_main("popup_heatmap", run, parse(argv), what="columns")
 
 
 if __name__ == "__main__":

@@ -67,23 +67,26 @@ def _check_count(name, value, minimum):
     return int(value)
 
 
-def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, newton=True,
-                 newton_rtol=1e-8, newton_steps=50, progress=False, monitor=None):
+def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_steps=None,
+                 newton=True, newton_rtol=1e-8, newton_steps=50, progress=False, monitor=None):
     """Relax a prestretched :class:`~.swatch_bspline.BSplineSwatch` from its
     knitted shape; returns (y, info dict: converged, residual, iterations,
-    method, history, oscillations, message).  monitor(step, y, residual, E, ke)."""
+    method, history, oscillations, message).  max_steps: a step limit besides
+    the time limit (None: none; a step limit repeats bit for bit, a time limit
+    depends on the machine's load).  monitor(step, y, residual, E, ke)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     model = bswatch.model
     y = model.reduce(model._initial())
     start = time.perf_counter()
     info = {"method": method, "converged": False, "message": "", "oscillations": 0}
+    steps = 10**9 if max_steps is None else int(max_steps)
     try:
         if method == "fire":
-            result = relax_fire(model, y, rtol=rtol, max_steps=10**9, max_time=max_time,
+            result = relax_fire(model, y, rtol=rtol, max_steps=steps, max_time=max_time,
                                 progress=progress, monitor=monitor)
         else:
-            result = relax_dynamic(model, y, rtol=rtol, max_steps=10**9, max_time=max_time,
+            result = relax_dynamic(model, y, rtol=rtol, max_steps=steps, max_time=max_time,
                                    damping=bswatch.constants.damping_rate, kinetic=False,
                                    progress=progress, monitor=monitor)
             info["oscillations"] = result.oscillations
@@ -112,18 +115,22 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, newton=T
 
 
 def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_loop=16,
-                 method="fire", rtol=1e-6, newton=True, max_time=1800.0, constants=None,
+                 method="fire", rtol=1e-6, newton=True, max_time=1800.0, max_steps=None,
+                 constants=None,
                  bindoff_stiffness=10.0, out=None, name=None, progress=True, trace=False):
     """Curl of an nw x nc plain-knit swatch in the B-spline model: issue 9's
     JSON keys (dict) plus "constants", "energy", "method", "message" and the
     relaxation history.  Fields the model cannot measure are None (here every
     key is measured).  max_time: seconds of relaxation before the last state
-    is reported as not converged.  out: a folder for the relaxed centrelines
+    is reported as not converged; max_steps: a step limit as well (None: none;
+    reproducible where a time limit is not).  out: a folder for the relaxed centrelines
     (.vtu), control points (.npy) and the summary (JSON), file names
     ``name`` (default ``bspline_<nw>x<nc>``).  trace: also return the relaxation's
     :class:`Trace` rows and shapes under "trace"."""
     nw = _check_count("nw", nw, 3)
     nc = _check_count("nc", nc, 4)
+    if max_steps is not None:
+        max_steps = _check_count("max_steps", max_steps, 1)
     alpha = float(alpha)
     if not (np.isfinite(alpha) and 0.0 <= alpha < 1.0):
         raise ValueError(f"alpha must be in [0, 1), got {alpha!r}")
@@ -135,8 +142,9 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
                         constants=constants, bindoff_stiffness=bindoff_stiffness)
     prestretch(bs, alpha)
     monitor = Trace(bs) if trace else None
-    y, info = relax_swatch(bs, method=method, rtol=rtol, max_time=max_time, newton=newton,
-                           progress=progress, monitor=monitor)
+    y, info = relax_swatch(bs, method=method, rtol=rtol, max_time=max_time,
+                           max_steps=max_steps, newton=newton, progress=progress,
+                           monitor=monitor)
     summary = summarise(bs, y, info)
     summary["elapsed_s"] = time.perf_counter() - t0
     if trace:
@@ -163,7 +171,7 @@ def summarise(bs, y, info):
         "alpha": bs.alpha, "curl": shape.curl, "edges_touch": bool(shape.edges_touch),
         "roll_deg": {k: float(v) for k, v in shape.roll_deg.items()},
         "curvature_x": float(shape.curvature_x), "curvature_y": float(shape.curvature_y),
-        "height_over_width": float(shape.height_over_width),
+        "height": float(shape.height), "height_over_width": float(shape.height_over_width),
         "converged": bool(info["converged"]), "residual": info["residual"],
         "stable": is_stable, "lowest_eigenvalue": lowest,
         "max_penetration_over_d": overlap(pts, model.contact_pairs(q), model.contact),

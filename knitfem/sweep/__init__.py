@@ -29,20 +29,20 @@ Plugging in a new study (e.g. the fabric phase diagram over (N_w, N_c))::
     # studies/<study>.py: parse options, then
     parser = argparse.ArgumentParser(...)
     add_sweep_options(parser)                   # --out --workers --scheduler --resume --quiet
-    args = parser.parse_args()
-    SWEEP_OPTIONS.validate(args)                # --workers range (knitfem.options)
+    args = parse_study("study", parser, OPTIONS)   # + SWEEP_OPTIONS: one line, exit 2
     result = run_sweep(curl_point, grid(nw=[5, 10], nc=[5, 10]), args.out,
                        constants={"curl": {...}}, resume=args.resume,
                        workers=args.workers, scheduler=args.scheduler,
                        progress=not args.quiet)
     rows = [dict(r["params"], **r["result"]) for r in result.records if r and r["status"] == "done"]
 
-and wrap ``main`` in :func:`knitfem.interrupt.interruptible` so SIGINT /
-SIGTERM stop the workers and exit 130 / 143 (see ``studies/popup_heatmap.py``).
+and end ``main`` with ``return sweep_main("study", run, args)``
+(:func:`sweep_main`: SIGINT / SIGTERM stop the workers and exit 130 / 143, a
+bad ``--resume`` is one line and exit 2; see ``studies/fabric_phase.py``).
 """
 import re
 
-from ..options import Check, Integer, OptionSet, refuse
+from ..options import Check, Integer, OptionError, OptionSet, refuse
 from .engine import SweepResult, execute, grid, run_sweep, task_name
 from .executors import DaskCluster, InProcess, LocalPool, executor
 from .store import SweepStore, point_key
@@ -70,6 +70,42 @@ SWEEP_OPTIONS = OptionSet(
 )
 
 
+def parse_study(name, parser, options, argv=None):
+    """Add ``options`` (an OptionSet) to ``parser`` (which has
+    :func:`add_sweep_options`), parse ``argv`` and validate them and
+    ``SWEEP_OPTIONS``; a bad value: one line ``<name>: error: ...``, exit 2."""
+    options.add_to(parser)
+    args = parser.parse_args(argv)
+    try:
+        options.validate(args)
+        SWEEP_OPTIONS.validate(args)
+    except OptionError as err:
+        parser.exit(2, f"{name}: error: {err}\n")
+    return args
+
+
+def sweep_main(name, run, args, what="points"):
+    """The body of a sweep study's ``main``: ``run(args)`` (-> exit code) with
+    SIGINT / SIGTERM as an orderly stop.  A ValueError (e.g. ``--resume`` on
+    another sweep) is one line ``<name>: error: ...``, exit 2; an interruption
+    one line saying where the finished ``what`` are, exit 130 / 143."""
+    import sys
+    from ..interrupt import interruptible, interruption
+    with interruptible():
+        try:
+            return run(args)
+        except ValueError as err:
+            print(f"{name}: error: {err}", file=sys.stderr)
+            return 2
+        except BaseException as err:
+            stop = interruption(err)
+            if stop is None:
+                raise
+            print(f"{name}: interrupted by {stop.signal_name}; finished {what} are in "
+                  f"{args.out}/points (run again with --resume)", file=sys.stderr)
+            return stop.exit_code
+
+
 def add_sweep_options(parser, out_default=None):
     """Add ``--out``, ``--workers``, ``--scheduler``, ``--resume`` and
     ``--quiet`` to an argparse parser (validate with ``SWEEP_OPTIONS``)."""
@@ -86,5 +122,6 @@ def add_sweep_options(parser, out_default=None):
 
 
 __all__ = ["DaskCluster", "InProcess", "LocalPool", "SWEEP_OPTIONS", "SweepResult",
-           "SweepStore", "add_sweep_options", "execute", "executor", "grid", "point_key",
-           "run_sweep", "task_name"]
+           "SweepStore", "add_sweep_options", "execute", "executor", "grid", "parse_study",
+           "point_key",
+           "run_sweep", "sweep_main", "task_name"]

@@ -1,0 +1,150 @@
+"""Fabric curl over a grid of swatch sizes (N_w, N_c): the sweep task and its rows.
+
+Each point of the sweep (:mod:`knitfem.sweep`) is one curl relaxation,
+:func:`curl_point`, with either model:
+
+* ``"bspline"``: the paper's B-spline yarn model
+  (:func:`knitfem.scenes.curl_bspline.bspline_curl`), FIRE within a time
+  limit ``max_time`` (s) and optionally a step limit ``max_steps`` (a step
+  limit repeats bit for bit, a time limit depends on the machine's load); a
+  point that runs out of either is *done* with ``converged: false`` and
+  the shape of its last state, which the rows and figures mark as such;
+* ``"beam"``: the Simo-Reissner beam scene (:func:`knitfem.scenes.curl.curl`
+  of a :class:`~knitfem.scenes.fabric.FabricScene`); a relaxation that fails
+  (``FabricRelaxationError``, or an error in the summary) makes the point
+  *failed* with the message: its last state is never reported as a curl.
+
+:func:`phase_rows` flattens the sweep's records into one row per point
+(:data:`COLUMNS`), failed and unfinished points included with their
+message and no shape.  Units: mm, degrees, seconds.
+"""
+from pathlib import Path
+import shutil
+import tempfile
+
+MODELS = ("bspline", "beam")
+ROLLS = ("left", "right", "top", "bottom")
+COLUMNS = ("nw", "nc", "nw_over_nc", "model", "status", "curl",
+           *(f"roll_{k}" for k in ROLLS), "curvature_x", "curvature_y", "height",
+           "height_over_width", "loop_aspect", "edges_touch", "converged", "stable",
+           "residual", "elapsed_s", "message", "error")
+# curl options of each model (the keys :func:`curl_point` passes on)
+BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_stiffness",
+                   "ea_over_ei", "max_time", "max_steps", "method", "rtol")
+BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiffness",
+                "ea_over_ei", "gj_over_ei", "friction")
+# what a point keeps of the model's summary (the rest is in its JSON file)
+KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "height", "height_over_width",
+        "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",
+        "iterations", "max_penetration_over_d", "directions_as_paper")
+
+
+class CurlFailed(RuntimeError):
+    """A relaxation that produced no equilibrium to classify (message only:
+    picklable, so it crosses process and cluster boundaries)."""
+
+
+def _options(options, allowed, model):
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise ValueError(f"curl options {unknown} do not apply to model {model!r} "
+                         f"(valid: {', '.join(allowed)})")
+    return {k: v for k, v in options.items() if v is not None}
+
+
+def _bspline(nw, nc, options, out_dir):
+    from .curl_bspline import bspline_curl
+    from .swatch_bspline import YarnConstants
+    options = _options(options, BSPLINE_OPTIONS, "bspline")
+    ea = options.pop("ea_over_ei", None)
+    constants = YarnConstants() if ea is None else YarnConstants(ea_over_ei=float(ea))
+    return bspline_curl(nw, nc, constants=constants, out=out_dir, progress=False,
+                        name="curl", **options)
+
+
+def _beam(nw, nc, options, out_dir):
+    from .curl import curl
+    from .fabric import FabricScene
+    from .fabric_relax import FabricRelaxationError
+    scene = FabricScene(nw, nc, **_options(options, BEAM_OPTIONS, "beam"))
+    with tempfile.TemporaryDirectory(prefix="knitfem-beam-") as tmp:
+        try:
+            summary = curl(scene, out=tmp, render=False, progress=False)
+        except FabricRelaxationError as err:
+            raise CurlFailed(f"FabricRelaxationError: {err}") from None
+        if summary.get("error") is not None:       # the last state of a failed relaxation
+            raise CurlFailed(f"FabricRelaxationError: {summary['error']}")
+        name = f"curl_{nw}x{nc}"
+        for suffix in (".vtu", ".json"):          # the equilibrium, not the path's frames
+            shutil.copy(Path(tmp) / f"{name}{suffix}", Path(out_dir) / f"curl{suffix}")
+    summary["message"] = ""
+    return summary
+
+
+def curl_point(params, out_dir):
+    """Sweep task: relax the ``params["nw"]`` x ``params["nc"]`` swatch with
+    ``params["model"]`` ("bspline" or "beam") and the curl options
+    ``params["curl"]`` (dict, keys :data:`BSPLINE_OPTIONS` / :data:`BEAM_OPTIONS`);
+    writes ``curl.vtu`` (the relaxed yarns), ``curl.json`` (the model's full
+    summary) and, B-spline, ``curl_control.npy`` (its control points) into
+    ``out_dir``.  Returns the curl, the signed edge rolls (deg), curvatures (1/mm), centre height H (mm) and H/W, relaxed loop aspect w/c,
+    converged / residual / stable and the relaxation's message.  Raises
+    :class:`CurlFailed` when the beam relaxation fails (the sweep records the
+    point as failed)."""
+    model = params.get("model", "bspline")
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    nw, nc = params["nw"], params["nc"]
+    run = _bspline if model == "bspline" else _beam
+    summary = run(nw, nc, dict(params.get("curl", {})), out_dir)
+    result = {"nw": nw, "nc": nc, "model": model, **{k: summary.get(k) for k in KEPT}}
+    result["message"] = summary.get("message", "")
+    result["relax_s"] = summary.get("relax_s", summary.get("elapsed_s"))
+    return result
+
+
+def _row(params, record):
+    """One CSV row (dict over COLUMNS) from a sweep record (None: not run)."""
+    nw, nc = params["nw"], params["nc"]
+    row = dict.fromkeys(COLUMNS)
+    row.update(nw=nw, nc=nc, nw_over_nc=nw / nc, converged=False)
+    if record is None:
+        row.update(status="not run", error="not run (sweep interrupted?)")
+        return row
+    row.update(status=record["status"], elapsed_s=record.get("elapsed_s"))
+    if record["status"] != "done":
+        row["error"] = record.get("error") or "failed"
+        return row
+    r = record["result"]
+    row.update({k: r.get(k) for k in COLUMNS if k in r and k != "roll_deg"})
+    for k in ROLLS:
+        row[f"roll_{k}"] = (r.get("roll_deg") or {}).get(k)
+    row["converged"] = bool(r.get("converged"))
+    return row
+
+
+def phase_rows(sweep, model):
+    """Rows (dicts over :data:`COLUMNS`) of a :class:`knitfem.sweep.SweepResult`
+    in grid order; ``model`` fills the column of points that did not finish."""
+    rows = []
+    for params, record in zip(sweep.points, sweep.records):
+        row = _row(params, record)
+        row["model"] = row["model"] or model
+        rows.append(row)
+    return rows
+
+
+def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, resume=False,
+                workers=None, scheduler=None, progress=True):
+    """Run :func:`curl_point` over every (nw, nc) through
+    :func:`knitfem.sweep.run_sweep` (persisted in ``out``, resumable, local
+    pool or Dask cluster); returns (rows, the SweepResult).  ``options``: the
+    model's curl options (the sweep's constants)."""
+    from ..sweep import grid, run_sweep
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    constants = {"model": model, "curl": dict(options or {})}
+    result = run_sweep(curl_point, grid(nw=list(nw_values), nc=list(nc_values)), out,
+                       constants=constants, resume=resume, workers=workers,
+                       scheduler=scheduler, progress=progress, desc=f"{model} curls")
+    return phase_rows(result, model), result

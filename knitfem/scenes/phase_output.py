@@ -1,0 +1,146 @@
+"""Outputs of the fabric phase sweep: ``phase.csv`` and the figures.
+
+* :func:`write_phase_csv`: one row per point (:data:`~.curl_sweep.COLUMNS`);
+* :func:`plot_phase_diagram`: the curl type over (N_w, N_c), the paper's
+  Fig. 5d markers (circles side, diamonds double, triangles top/bottom;
+  squares flat), filled only for converged relaxations; a point that did not
+  converge is drawn hollow and grey in its last state's shape, a failed or
+  unfinished one as a grey cross, with the experimental boundary
+  N_w / N_c = 2 (side curl below it, paper Sec. 6);
+* :func:`plot_phase_trends`: the centre height H (mm) and the relaxed loop
+  aspect w/c against N_w / N_c (the paper's Fig. 2a / 2b analogues), same
+  markers; failed points have no value and are only counted.
+"""
+import numpy as np
+
+from ..io.atomic import save_figure, write_csv
+from .curl_sweep import COLUMNS
+
+MARKERS = {"side": "o", "double": "D", "top_bottom": "^", "flat": "s"}
+COLOURS = {"side": "tab:blue", "double": "tab:purple", "top_bottom": "tab:red",
+           "flat": "tab:green"}
+NOT_CONVERGED = "0.45"            # grey edge of a hollow marker
+BOUNDARY = 2.0                    # experimental N_w / N_c between side and other curls
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def write_phase_csv(rows, path):
+    """Write the rows (dicts over COLUMNS; None as an empty cell) to ``path``."""
+    def cell(v):
+        return "" if v is None else v
+    return write_csv(path, list(COLUMNS), [[cell(r.get(k)) for k in COLUMNS] for r in rows])
+
+
+def point_state(row):
+    """"converged", "not converged" (a shape at the time or step limit) or
+    "failed" (no shape: failed, not run)."""
+    if row.get("status") != "done" or row.get("curl") is None:
+        return "failed"
+    return "converged" if row.get("converged") else "not converged"
+
+
+def _groups(rows):
+    """(label, state, curl, rows) for each marker group, legend order."""
+    groups = []
+    for state in ("converged", "not converged"):
+        for curl in MARKERS:
+            members = [r for r in rows if point_state(r) == state and r["curl"] == curl]
+            if members:
+                label = curl.replace("_", "/") + ("" if state == "converged"
+                                                  else " (not converged)")
+                groups.append((label, state, curl, members))
+    failed = [r for r in rows if point_state(r) == "failed"]
+    if failed:
+        groups.append(("failed / not run", "failed", None, failed))
+    return groups
+
+
+def scatter_points(ax, rows, x, y, size=70):
+    """Scatter rows on ``ax`` at (x(row), y(row)) with the curl markers:
+    filled and coloured when converged, hollow and grey when not, grey
+    crosses when failed (skipped where y(row) is None).  Returns the
+    collections by label."""
+    drawn = {}
+    for label, state, curl, members in _groups(rows):
+        pts = [(x(r), y(r)) for r in members if y(r) is not None]
+        if not pts:
+            continue
+        xs, ys = np.array(pts, float).T
+        if state == "converged":
+            style = dict(marker=MARKERS[curl], c=COLOURS[curl], edgecolors="k")
+        elif state == "not converged":
+            style = dict(marker=MARKERS[curl], facecolors="none", edgecolors=NOT_CONVERGED,
+                         linestyle="--")
+        else:
+            style = dict(marker="x", c=NOT_CONVERGED)
+        drawn[label] = ax.scatter(xs, ys, s=size, linewidths=1.3, label=label, zorder=3,
+                                  **style)
+    return drawn
+
+
+def _counts(rows):
+    states = [point_state(r) for r in rows]
+    return ", ".join(f"{states.count(s)} {s}" for s in ("converged", "not converged", "failed")
+                     if states.count(s))
+
+
+def phase_diagram(rows, title=None):
+    """The phase diagram figure (fig, ax) over N_w (x) and N_c (y)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8.6, 5.0))
+    scatter_points(ax, rows, lambda r: r["nw"], lambda r: r["nc"], size=90)
+    nc_max = max(r["nc"] for r in rows)
+    nw_max = max(r["nw"] for r in rows)
+    top = 1.1 * max(nc_max, nw_max / BOUNDARY)
+    nc_line = np.array([0.0, top])
+    ax.plot(BOUNDARY * nc_line, nc_line, "k--", lw=1.0,
+            label=f"experiment: $N_w/N_c$ = {BOUNDARY:g}\n(side curl above-left)")
+    ax.set_xlim(0, 1.08 * nw_max + 2)
+    ax.set_ylim(0, 1.08 * nc_max + 2)
+    ax.set_xlabel("$N_w$ (wales)")
+    ax.set_ylabel("$N_c$ (courses)")
+    ax.set_title(title or f"Curl phase diagram ({_counts(rows)})", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)
+    fig.tight_layout()
+    return fig, ax
+
+
+def plot_phase_diagram(rows, path, title=None):
+    """Write the phase diagram (see :func:`phase_diagram`) to ``path``."""
+    fig, _ = phase_diagram(rows, title)
+    return save_figure(fig, path)
+
+
+def phase_trends(rows, knitted_aspect=None):
+    """H and loop aspect w/c against N_w/N_c (fig, (ax_H, ax_aspect))."""
+    plt = _plt()
+    fig, (ax_h, ax_a) = plt.subplots(1, 2, figsize=(11.0, 4.6))
+    ratio = lambda r: r["nw"] / r["nc"]                                  # noqa: E731
+    scatter_points(ax_h, rows, ratio, lambda r: r.get("height"))
+    scatter_points(ax_a, rows, ratio, lambda r: r.get("loop_aspect"))
+    if knitted_aspect is not None:
+        ax_a.axhline(knitted_aspect, color="0.3", lw=0.8, ls=":", label="knitted w/c")
+    for ax in (ax_h, ax_a):
+        ax.axvline(BOUNDARY, color="k", ls="--", lw=0.8,
+                   label=f"experiment: boundary {BOUNDARY:g}")
+        ax.set_xlabel("$N_w / N_c$")
+        ax.legend(fontsize=7)
+    ax_h.set_ylabel("centre height H (mm, swatch laid knit face down)")
+    ax_a.set_ylabel("relaxed loop aspect w/c (central loops)")
+    ax_h.set_title("H vs $N_w/N_c$ (Fig. 2a analogue)", fontsize=10)
+    ax_a.set_title("loop aspect vs $N_w/N_c$ (Fig. 2b analogue)", fontsize=10)
+    fig.suptitle(f"{_counts(rows)} (failed points have no H or w/c)", fontsize=9)
+    fig.tight_layout()
+    return fig, (ax_h, ax_a)
+
+
+def plot_phase_trends(rows, path, knitted_aspect=None):
+    """Write the H and loop-aspect figure (see :func:`phase_trends`) to ``path``."""
+    fig, _ = phase_trends(rows, knitted_aspect)
+    return save_figure(fig, path)

@@ -1,0 +1,181 @@
+"""Fabric curl phase diagram over (N_w, N_c), with the centre height H and the
+relaxed loop aspect w/c against N_w/N_c (paper Fig. 5d, Fig. 2a/2b analogues).
+
+One curl relaxation per swatch size, each a point of the sweep engine
+(:mod:`knitfem.sweep`, task :func:`knitfem.scenes.curl_sweep.curl_point`):
+persisted as it finishes, ``--resume`` skips finished points, local process
+pool (default, ``--workers N``) or a Dask cluster (``--scheduler``), a
+progress bar over points.
+
+    python studies/fabric_phase.py --out DIR                       # the issue's 8 x 7 grid
+    python studies/fabric_phase.py --nw 5,10 --nc 5,10 --max-time 300 --out DIR
+    python studies/fabric_phase.py --out DIR --resume              # after an interruption
+    python studies/fabric_phase.py --out DIR --scheduler tcp://host:8786
+    python studies/fabric_phase.py --model beam --nw 5 --nc 5 --out DIR
+
+Models: ``bspline`` (default; the paper's B-spline yarns, FIRE within
+``--max-time`` seconds per point and optionally ``--max-steps``: a point out
+of time is kept with converged = false and drawn hollow) or ``beam`` (the
+beam scene; a relaxation that fails is a failed point with its message).
+
+Writes DIR/phase.csv (one row per point), DIR/phase.json (rows, grid,
+options, counts, wall time, points per hour), DIR/phase_diagram.png,
+DIR/phase_trends.png (H and w/c vs N_w/N_c), DIR/run.json (complete: true
+last) and the sweep's DIR/sweep.json + DIR/points/ (per point: its JSON
+record, the relaxed yarns curl.vtu and the model's full summary curl.json).
+Exit 0, 3 when a point failed, 2 on bad options, 130 / 143 when interrupted.
+"""
+import argparse
+from dataclasses import replace
+import os
+import sys
+import time
+
+from knitfem.io import write_json
+from knitfem.io.run import RunFolder
+from knitfem.options import Check, Integer, OptionSet, Real, refuse
+from knitfem.scenes import curl_command
+from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS, MODELS, phase_sweep
+from knitfem.scenes.phase_output import plot_phase_diagram, plot_phase_trends, point_state, \
+    write_phase_csv
+from knitfem.sweep import add_sweep_options, parse_study, sweep_main
+
+NW = (5, 10, 15, 20, 25, 30, 40, 55)
+NC = (5, 10, 15, 20, 25, 30, 35)
+SMALLEST = (3, 4)             # (nw, nc): the curl analysis needs 3 wales and 4 courses
+LARGEST = 200
+OVERHEAD_S = 30.0             # s per B-spline point besides relaxing (build, stability, files)
+
+_BEAM = ("model", "beam")
+_BSPLINE = ("model", "bspline")
+
+
+def _curl_specs():
+    """The ``knitfem curl`` options that make sense per point (one definition,
+    its ranges and its yarn check), beam-only ones refused with bspline."""
+    beam_only = {"--elements-per-loop", "--gj-over-ei", "--friction"}
+    specs = []
+    for spec in curl_command.OPTIONS.specs:
+        if isinstance(spec, Real) and spec.flag not in ("--nw", "--nc"):
+            if spec.flag in beam_only:
+                spec = replace(spec, when=(*_BEAM, "the bspline model has none"))
+            specs.append(spec)
+        elif isinstance(spec, Check):
+            specs.append(spec)
+    return specs
+
+
+def _counts(flag, text, smallest):
+    """A comma-separated list of distinct integers in [smallest, LARGEST]."""
+    try:
+        values = [int(v) for v in text.split(",")]
+    except ValueError:
+        values = None
+    if not values or any(not smallest <= v <= LARGEST for v in values) \
+            or len(set(values)) != len(values):
+        refuse(flag, f"must be a comma-separated list of different integers in "
+                     f"[{smallest}, {LARGEST}], e.g. 5,10,15", text)
+    return values
+
+
+def _grid(v):
+    lo_w, lo_c = SMALLEST
+    v.nw = _counts("--nw", v.nw, lo_w) if isinstance(v.nw, str) else v.nw
+    v.nc = _counts("--nc", v.nc, lo_c) if isinstance(v.nc, str) else v.nc
+
+
+OPTIONS = OptionSet(
+    *_curl_specs(),
+    Real("--max-time", 1800.0, "(0, 1e+06]", when=(*_BSPLINE, "the beam relaxation has no "
+         "time limit"), help="seconds of relaxation per point; then its last state is kept "
+         "as not converged"),
+    Integer("--max-steps", None, "[1, 1e+09]", when=(*_BSPLINE, "the beam relaxation has "
+            "no step limit"), help="FIRE steps per point (default: none; a step limit "
+            "repeats bit for bit, a time limit depends on the load)"),
+    Integer("--segments-per-loop", 16, "[8, 64]", when=(*_BSPLINE, "the beam model has "
+            "elements, see --elements-per-loop"), help="B-spline segments per loop"),
+    Check(_grid),
+)
+
+
+def parse(argv):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    add_sweep_options(parser)
+    parser.add_argument("--nw", default=",".join(map(str, NW)),
+                        help=f"wale counts N_w (default {','.join(map(str, NW))})")
+    parser.add_argument("--nc", default=",".join(map(str, NC)),
+                        help=f"course counts N_c (default {','.join(map(str, NC))})")
+    parser.add_argument("--model", choices=MODELS, default="bspline",
+                        help="bspline: the paper's B-spline yarns (default); beam: the "
+                             "Simo-Reissner beam scene")
+    return parse_study("fabric_phase", parser, OPTIONS, argv)
+
+
+def curl_options(args):
+    """The per-point curl options of ``args`` for its model."""
+    keys = BSPLINE_OPTIONS if args.model == "bspline" else BEAM_OPTIONS
+    return {k: getattr(args, k) for k in keys if getattr(args, k, None) is not None}
+
+
+def projection(args):
+    """A line on how long the grid may take (B-spline: each point at most
+    --max-time plus its overhead; beam: ``knitfem curl``'s estimate)."""
+    n = len(args.nw) * len(args.nc)
+    if args.model == "bspline":
+        per_point = [args.max_time + OVERHEAD_S] * n
+    else:
+        per_point = [curl_command.seconds(replace_counts(args, nw, nc))
+                     for nw in args.nw for nc in args.nc]
+    if args.scheduler:
+        return f"{n} points, about {sum(per_point) / 3600:.3g} worker-hours at most"
+    workers = max(1, args.workers if args.workers is not None else (os.cpu_count() or 1))
+    hours = max(sum(per_point) / workers, max(per_point)) / 3600
+    return f"{n} points, at most about {hours:.3g} h on {workers} worker(s)"
+
+
+def replace_counts(args, nw, nc):
+    return argparse.Namespace(**{**vars(args), "nw": nw, "nc": nc})
+
+
+def run(args):
+    options = curl_options(args)
+    run = RunFolder(args.out, "studies/fabric_phase.py", vars(args),
+                    outputs=("phase.csv", "phase.json", "phase_diagram.png",
+                             "phase_trends.png"))
+    if not args.quiet:
+        print(projection(args), file=sys.stderr)
+    with run:
+        t = time.perf_counter()
+        rows, sweep = phase_sweep(args.nw, args.nc, args.out, model=args.model,
+                                  options=options, resume=args.resume, workers=args.workers,
+                                  scheduler=args.scheduler, progress=not args.quiet)
+        wall = time.perf_counter() - t
+        write_phase_csv(rows, run.path / "phase.csv")
+        plot_phase_diagram(rows, run.path / "phase_diagram.png",
+                           title=f"{args.model} curl phase diagram")
+        plot_phase_trends(rows, run.path / "phase_trends.png", knitted_aspect=args.w / args.c)
+        states = [point_state(r) for r in rows]
+        ran = len(rows) - sweep.reused
+        write_json(run.path / "phase.json", {
+            "model": args.model, "nw": args.nw, "nc": args.nc, "curl_options": options,
+            "rows": rows, "counts": {s: states.count(s) for s in
+                                     ("converged", "not converged", "failed")},
+            "wall_s": wall, "points_run": ran, "points_reused": sweep.reused,
+            "points_per_hour": 3600.0 * ran / wall if ran and wall > 0 else None,
+            "executor": sweep.executor})
+    print(f"{len(rows)} points in {wall:.1f} s wall ({sweep.reused} reused, {sweep.executor}): "
+          f"{states.count('converged')} converged, {states.count('not converged')} not "
+          f"converged, {states.count('failed')} failed")
+    for r in rows:
+        state = point_state(r)
+        what = r["error"] if state == "failed" else f"{r['curl']} ({state})"
+        print(f"  {r['nw']:3d} x {r['nc']:3d}: {what}")
+    return 3 if "failed" in states else 0
+
+
+def main(argv=None):
+    return sweep_main("fabric_phase", run, parse(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,228 @@
+"""The fabric phase sweep: the real B-spline task end to end on the smallest
+swatches, a failed beam relaxation recorded as failed (never as a curl), the
+CSV and the markers (a not-converged point hollow), the Dask path and a
+killed + resumed study giving the local pool's rows."""
+import csv
+import json
+import os
+from pathlib import Path
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from knitfem.scenes import curl_sweep
+from knitfem.scenes.curl_sweep import COLUMNS, curl_point, phase_sweep
+from knitfem.scenes.phase_output import phase_diagram, phase_trends, point_state, \
+    write_phase_csv
+
+ROOT = Path(__file__).resolve().parents[1]
+NW, NC = [3, 4], [4]
+STEPS = {"max_steps": 150, "max_time": 120.0}   # a step limit: the same work everywhere
+
+
+def records(out):
+    """The finished points' records (not the hidden temporaries of atomic writes)."""
+    return list((out / "points").glob("[!.]*.json"))
+
+
+def same_rows(a, b):
+    """Rows equal in everything but the wall time."""
+    strip = [{k: v for k, v in r.items() if k != "elapsed_s"} for r in a]
+    return strip == [{k: v for k, v in r.items() if k != "elapsed_s"} for r in b]
+
+
+@pytest.fixture(scope="module")
+def pool_rows(tmp_path_factory):
+    """The 2 x 1 grid on a local pool of 2 processes."""
+    rows, sweep = phase_sweep(NW, NC, tmp_path_factory.mktemp("pool"), options=STEPS,
+                              workers=2, progress=False)
+    assert sweep.executor.startswith("local pool") and sweep.complete
+    return rows
+
+
+def test_curl_point_relaxes_the_smallest_bspline_swatch_end_to_end(tmp_path):
+    """3 x 4, 150 FIRE steps: a real relaxation, its shape measured and said
+    to be not converged; the files are written; the same work repeats bit for bit."""
+    result = curl_point({"nw": 3, "nc": 4, "model": "bspline", "curl": STEPS}, tmp_path)
+    assert result["nw"] == 3 and result["model"] == "bspline"
+    assert result["converged"] is False and "150 steps" in result["message"]
+    assert 1e-6 < result["residual"] < 1.0
+    assert result["curl"] in ("side", "double", "top_bottom", "flat")
+    assert set(result["roll_deg"]) == {"left", "right", "top", "bottom"}
+    # mirror symmetry of the 3-wale swatch: left and right rolls agree
+    assert result["roll_deg"]["left"] == pytest.approx(result["roll_deg"]["right"], abs=1e-6)
+    assert result["height"] == pytest.approx(result["height_over_width"] * 3 * 4.0, rel=1e-12)
+    assert result["loop_aspect"] > 0
+    assert {"curl.vtu", "curl.json", "curl_control.npy"} <= {p.name for p in tmp_path.iterdir()}
+    again = curl_point({"nw": 3, "nc": 4, "model": "bspline", "curl": STEPS}, tmp_path / "b")
+    assert {k: v for k, v in again.items() if k != "relax_s"} == \
+        {k: v for k, v in result.items() if k != "relax_s"}
+
+
+def test_a_failed_beam_relaxation_is_a_failed_point_not_a_curl(tmp_path, monkeypatch):
+    """The beam path's curl() returns its last state with an error when the
+    relaxation fails, or raises: either way the point fails with the message."""
+    from knitfem.scenes import curl as beam_curl
+    from knitfem.scenes.fabric_relax import FabricRelaxationError
+
+    def returns_error(scene, **kw):
+        return {"curl": "side", "converged": False, "error": "relaxation failed near lam = 0.3"}
+
+    def raises(scene, **kw):
+        raise FabricRelaxationError("relaxation failed near lam = 0.1", None, 0.0, [])
+
+    for fake, text in ((returns_error, "lam = 0.3"), (raises, "lam = 0.1")):
+        monkeypatch.setattr(beam_curl, "curl", fake)
+        rows, sweep = phase_sweep([3], [4], tmp_path / fake.__name__, model="beam",
+                                  options={"alpha": 0.2}, workers=0, progress=False)
+        assert sweep.records[0]["status"] == "failed"
+        assert "FabricRelaxationError" in rows[0]["error"] and text in rows[0]["error"]
+        assert rows[0]["curl"] is None and rows[0]["converged"] is False
+        assert point_state(rows[0]) == "failed"
+
+
+def test_options_of_the_other_model_are_refused(tmp_path):
+    with pytest.raises(ValueError, match=r"\['friction'\] do not apply to model 'bspline'"):
+        curl_point({"nw": 3, "nc": 4, "curl": {"friction": 0.3}}, tmp_path)
+    with pytest.raises(ValueError, match="model must be one of"):
+        curl_point({"nw": 3, "nc": 4, "model": "rod"}, tmp_path)
+
+
+def synthetic_rows():
+    rows = []
+    for nw, nc, curl, status, converged in [(5, 10, "side", "done", True),
+                                            (25, 10, "double", "done", True),
+                                            (55, 10, "top_bottom", "done", True),
+                                            (10, 35, "side", "done", False),
+                                            (40, 5, None, "failed", False)]:
+        row = dict.fromkeys(COLUMNS)
+        row.update(nw=nw, nc=nc, nw_over_nc=nw / nc, model="bspline", status=status,
+                   curl=curl, converged=converged)
+        if status == "done":
+            row.update(height=0.1 * nw / nc, loop_aspect=1.3 + 0.01 * nw / nc,
+                       roll_left=-45.0, residual=1e-3)
+        else:
+            row["error"] = "CurlFailed: FabricRelaxationError: relaxation failed, lam = 0.1"
+        rows.append(row)
+    return rows
+
+
+def test_phase_csv_has_one_row_per_point_with_empty_cells_for_no_value(tmp_path):
+    rows = synthetic_rows()
+    write_phase_csv(rows, tmp_path / "phase.csv")
+    with open(tmp_path / "phase.csv", newline="") as f:
+        read = list(csv.DictReader(f))
+    assert list(read[0]) == list(COLUMNS) and len(read) == 5
+    assert read[3]["curl"] == "side" and read[3]["converged"] == "False"
+    assert read[4]["curl"] == "" and read[4]["height"] == "" and "lam = 0.1" in read[4]["error"]
+
+
+def test_not_converged_points_are_hollow_and_failed_ones_crosses():
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+    rows = synthetic_rows()
+    fig, ax = phase_diagram(rows)
+    drawn = {c.get_label(): c for c in ax.collections}
+    assert set(drawn) == {"side", "double", "top/bottom", "side (not converged)",
+                          "failed / not run"}
+    for label in ("side", "double", "top/bottom"):                   # converged: filled
+        assert drawn[label].get_facecolors()[0][3] == 1.0
+    hollow = drawn["side (not converged)"]
+    assert hollow.get_facecolors().size == 0 or hollow.get_facecolors()[0][3] == 0.0
+    assert np.allclose(hollow.get_edgecolors()[0], to_rgba("0.45"))
+    assert hollow.get_offsets().tolist() == [[10, 35]]
+    assert drawn["failed / not run"].get_offsets().tolist() == [[40, 5]]
+    boundary = [line for line in ax.lines if "N_w/N_c" in line.get_label()][0]
+    (x0, x1), (y0, y1) = boundary.get_data()
+    assert x0 == y0 == 0 and x1 / y1 == 2.0 and y1 >= 35
+    plt.close(fig)
+    fig, (ax_h, ax_a) = phase_trends(rows, knitted_aspect=4 / 3)
+    drawn = {c.get_label(): c for c in ax_h.collections}
+    assert "failed / not run" not in drawn                          # no H for a failed point
+    assert drawn["side (not converged)"].get_offsets().tolist() == [[10 / 35, 0.1 * 10 / 35]]
+    plt.close(fig)
+
+
+def test_dask_local_cluster_gives_the_local_pool_rows(tmp_path, pool_rows):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        rows, sweep = phase_sweep(NW, NC, tmp_path, options=STEPS,
+                                  scheduler=cluster.scheduler_address, progress=False)
+    assert sweep.executor.startswith("Dask") and sweep.complete
+    assert same_rows(rows, pool_rows)
+
+
+def load_study():
+    from importlib import util
+    spec = util.spec_from_file_location("fabric_phase", ROOT / "studies" / "fabric_phase.py")
+    module = util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def study(out, *extra):
+    return [sys.executable, str(ROOT / "studies" / "fabric_phase.py"), "--out", str(out),
+            "--nw", "3,4,5", "--nc", "4", "--max-steps", str(STEPS["max_steps"]),
+            "--max-time", str(STEPS["max_time"]), "--quiet", *extra]
+
+
+def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool_rows):
+    out = tmp_path / "phase"
+    env = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
+    proc = subprocess.Popen(study(out, "--workers", "0"), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
+    deadline = time.time() + 120
+    while not records(out) and proc.poll() is None:
+        assert time.time() < deadline, "no point finished in 120 s"
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 143, err
+    finished = len(records(out))
+    assert 1 <= finished < 3 and not (out / "phase.csv").exists()
+    assert json.loads((out / "sweep.json").read_text())["complete"] is False
+
+    assert load_study().main(study(out, "--workers", "0", "--resume")[2:]) == 0   # in here
+    result = json.loads((out / "phase.json").read_text())
+    assert result["points_reused"] == finished and result["points_run"] == 3 - finished
+    rows = result["rows"]
+    assert [(r["nw"], r["nc"]) for r in rows] == [(3, 4), (4, 4), (5, 4)]
+    assert same_rows(rows[:2], pool_rows)          # the uninterrupted pool's 3 x 4, 4 x 4
+    assert json.loads((out / "run.json").read_text())["complete"] is True
+    with open(out / "phase.csv", newline="") as f:
+        assert len(list(csv.DictReader(f))) == 3
+    assert (out / "phase_diagram.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--nw", "5,x"], "--nw must be a comma-separated list of different integers in [3, 200]"),
+    (["--nc", "3"], "--nc must be a comma-separated list of different integers in [4, 200]"),
+    (["--nc", "5,5"], "--nc must be a comma-separated list"),
+    (["--model", "beam", "--nw", "2"], "--nw must be a comma-separated list of different "
+                                       "integers in [3, 200]"),
+    (["--max-time", "0"], "--max-time must be a number in (0, 1e+06]"),
+    (["--model", "beam", "--max-time", "10"], "--max-time does not apply to --model beam"),
+    (["--friction", "0.3"], "--friction does not apply to --model bspline"),
+    (["--radius", "0.6"], "--radius must be below --w/8"),
+    (["--workers", "-1"], "--workers must be an integer in [0, 1024]"),
+])
+def test_bad_options_are_one_line_naming_the_option_exit_2(tmp_path, capsys, args, message):
+    with pytest.raises(SystemExit) as stop:
+        load_study().parse(["--out", str(tmp_path), *args])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+
+
+def test_rows_of_points_that_did_not_run_say_so():
+    class Sweep:
+        points = [{"nw": 3, "nc": 4}]
+        records = [None]
+    row = curl_sweep.phase_rows(Sweep, "bspline")[0]
+    assert row["status"] == "not run" and row["curl"] is None and row["model"] == "bspline"
+    assert point_state(row) == "failed"
