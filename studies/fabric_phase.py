@@ -56,7 +56,7 @@ def _curl_specs():
     beam_only = {"--elements-per-loop", "--gj-over-ei", "--friction"}
     specs = []
     for spec in curl_command.OPTIONS.specs:
-        if isinstance(spec, Real) and spec.flag not in ("--nw", "--nc"):
+        if isinstance(spec, Real) and spec.flag not in ("--nw", "--nc", "--max-time"):
             if spec.flag in beam_only:
                 spec = replace(spec, when=(*_BEAM, "the bspline model has none"))
             specs.append(spec)

@@ -134,3 +134,17 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and flag in err
+
+
+def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_path, capsys):
+    """``knitfem curl --model bspline`` (it was an ImportError): a 2 s time
+    limit ends the relaxation unconverged, which the exit code (3) and the
+    JSON say; beam-only options are refused."""
+    from knitfem.cli import main
+    out = tmp_path / "b.json"
+    assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--max-time", "2",
+                 "--quiet", "--json", str(out)]) == 3
+    summary = json.loads(out.read_text())
+    assert summary["model"] == "bspline" and summary["converged"] is False
+    assert "time limit" in summary["message"]
+    assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--friction", "0.1"]) == 2

@@ -154,6 +154,16 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     return summary
 
 
+def bspline_curl_from_options(args):
+    """``knitfem curl --model bspline``: :func:`bspline_curl` from the validated
+    options (``--max-time``, default 1800 s); writes into ``--out`` when given."""
+    from .swatch_bspline import YarnConstants
+    return bspline_curl(args.nw, args.nc, alpha=args.alpha, w=args.w, c=args.c,
+                        radius=args.radius, bindoff_stiffness=args.bindoff_stiffness,
+                        constants=YarnConstants(ea_over_ei=float(args.ea_over_ei)),
+                        max_time=args.max_time, out=args.out, progress=not args.quiet)
+
+
 def summarise(bs, y, info):
     """Issue 9's keys for the state y of swatch ``bs`` (relaxation ``info``)."""
     from ..analysis.curl import swatch_curl

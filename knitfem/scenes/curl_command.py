@@ -48,6 +48,9 @@ def _yarn_fits(v):
 def _resume_needs_out(v):
     if getattr(v, "resume", False) and not getattr(v, "out", None):
         refuse("--resume", "needs --out (the folder holding the checkpoint)", True)
+    if getattr(v, "resume", False) and getattr(v, "model", "beam") == "bspline":
+        refuse("--resume", "applies to --model beam only (the bspline relaxation keeps no "
+               "checkpoint)", True)
 
 
 _NO_TWIST = ("model", "beam", "the bspline model has no torsional stiffness (no twist energy)")
@@ -60,11 +63,16 @@ OPTIONS = OptionSet(
     Real("--w", 4.0, "(0, 1000]", help="wale length (loop width), mm"),
     Real("--c", 3.0, "(0, 1000]", help="course length (loop height), mm"),
     Real("--radius", 0.4, "(0, 1000]", help="yarn radius, mm"),
-    Integer("--elements-per-loop", 16, "[8, 64]", help="beam elements per loop"),
+    Integer("--elements-per-loop", 16, "[8, 64]", help="beam elements per loop",
+            when=("model", "beam", "the bspline model has 16 B-spline segments per loop")),
     Real("--gj-over-ei", 2.0 / 3.0, "[1e-06, 100]", when=_NO_TWIST,
          help="torsional over bending stiffness"),
     Real("--ea-over-ei", 800.0, "[1, 1e+06]", help="stretching over bending stiffness, 1/mm^2"),
-    Real("--friction", 0.3, "[0, 2]", help="Coulomb friction coefficient between yarns"),
+    Real("--friction", 0.3, "[0, 2]", help="Coulomb friction coefficient between yarns",
+         when=("model", "beam", "the bspline model is frictionless, as the paper's")),
+    Real("--max-time", 1800.0, "(0, 1e+06]", when=("model", "bspline", "the beam relaxation "
+         "runs to convergence or fails"), help="bspline: seconds of relaxation before the "
+         "last state is reported as not converged"),
     Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
          help="bind-off stiffness relative to the yarn's"),
     Check(_yarn_fits),
@@ -101,7 +109,7 @@ def add_parser(subparsers):
 
 def run(args):
     """Run the validated ``curl`` command; exit code 0, or 3 when the relaxation failed
-    (the summary, with its error, is still written)."""
+    or did not converge (the summary, saying so, is still written)."""
     from ..cli import run_folder, write_summary
     with run_folder(args):
         if args.model == "bspline":
@@ -121,4 +129,4 @@ def run(args):
             f"relaxation failed: {summary['error']}"
         write_summary(args, summary, f"{verdict}, converged {summary['converged']}, "
                       f"stable {summary['stable']}; wrote {args.json}")
-    return 0 if summary.get("error") is None else 3
+    return 0 if summary.get("error") is None and summary["converged"] else 3
