@@ -62,13 +62,13 @@ def test_sigterm_mid_sweep_then_resume_equals_the_uninterrupted_heat_map(tmp_pat
     proc = subprocess.Popen(study(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, env=env)
     deadline = time.time() + 120
-    while len(list((out / "points").glob("*.json"))) < 2 and proc.poll() is None:
+    while len(list((out / "points").glob("[!.]*.json"))) < 2 and proc.poll() is None:
         assert time.time() < deadline, "no point finished in 120 s"
         time.sleep(0.02)
     workers = children(proc.pid)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
-    finished = len(list((out / "points").glob("*.json")))
+    finished = len(list((out / "points").glob("[!.]*.json")))
     assert proc.returncode == 143, err
     assert len(err.strip().splitlines()) == 1 and "interrupted by SIGTERM" in err, err
     assert 2 <= finished < len(W), "the kill should land mid-sweep"
