@@ -282,3 +282,24 @@ def test_a_stepping_error_from_a_real_solve_pickles_with_its_steps():
     copy = pickle.loads(pickle.dumps(info.value))
     assert len(copy.steps) == 1 and copy.steps[0].load == 0.1 and copy.reason == info.value.reason
     assert np.array_equal(copy.state.x, info.value.state.x)
+# -- the round-off floor of thick, finely meshed rods ------------------------------------
+
+def test_thick_finely_meshed_rod_converges_at_its_moment_round_off():
+    """L/d = 2 with 2000 elements (h = d/1000), tip load P L^2/EI = 10 in one
+    step.  Rotations carry round-off eps, i.e. eps/h in curvature, weighed by 1/h
+    in the residual norm: 16x the chord round-off the floor used to count alone,
+    so Newton could never reach its floor (it halved without end: > 60 s
+    measured; the stress table's L/d = 10 x 20000 elastica cases hung).  With
+    the moment term it converges without a cut and the tip is that of the
+    extensible, shearable elastica within 0.5/n^2 (the stress table's tolerance;
+    discretisation 0.19/n^2)."""
+    section = slender(2.0)
+    model = cases.cantilever_tip_load(2000, alpha=10.0, section=section)
+    asm = model.assembly
+    eps, size = np.finfo(float).eps, model.position_scale()
+    chords = eps * np.sqrt(np.sum((asm.CN.max(axis=1) * size / asm.h) ** 2))
+    assert model.roundoff_floor() > 10 * chords          # the moment term dominates here
+    step = model.solve(loads=[1.0], max_halvings=2)[-1]
+    reference = closed_form.extensible_elastica_tip(10.0, section.EA, section.GA2, section.EI3)
+    assert np.abs(step.state.x[-1, :2] - reference).max() < 0.5 / 2000**2
+    assert step.substeps == 1 and step.iterations <= 8 and step.stable
