@@ -2,6 +2,7 @@
 outcome before and after the solver change can be compared with one command:
 
     python studies/issue10_cases.py                               # this checkout
+    (output of this checkout: studies/results/stress/issue10_cases_after.txt)
     cd /tmp && PYTHONPATH=/tmp/before python /path/to/studies/issue10_cases.py
 
 1  yarn_on_yarn(EI/r^3, factor) under loads 0.25..1 (factor 1e5 and 1e10):

@@ -19,9 +19,13 @@ defaults in a watched worker process and sorted into
 * hang - no answer within the case's time limit (worker killed and restarted);
 * n/a - the case asks for an option the code under test does not have.
 
-    python studies/stress.py --out studies/results/stress                 # ~20 min
+    python studies/stress.py --out studies/results/stress --readme       # 188 cases, ~11 min
     python studies/stress.py --out /tmp/before-run --pythonpath /tmp/before --label before
-    python studies/stress.py --quick ...                                  # ~2 min subset
+    python studies/stress.py --quick ...                                  # 38 cases, ~30 s
+
+(times measured on the shared 2-core machine with OMP_NUM_THREADS=1
+NUMBA_NUM_THREADS=1, wall clock of the whole command; the largest cases,
+20 000 elements x 10 steps and 2000 x 100, take 20-40 s each).
 
 Writes OUT/stress_<label>.json (every case and step) and OUT/stress_<label>.md;
 ``--readme`` puts the counts (with those of a ``stress_before.json`` next to
@@ -80,10 +84,23 @@ def run_case(case, refs):
     return {"steps": [stress_cases.measure(case, model, s) for s in steps]}
 
 
+def warm_up():
+    """One tiny beam and one tiny contact solve, so that numba compiles (or loads its
+    cache) before the first timed case: a cold compile of an older checkout on a
+    busy machine took over 120 s and counted as a hang."""
+    from knitfem.verify import cases
+    try:
+        cases.cantilever_end_moment(2).solve()
+        cases.yarn_on_yarn(1.0).solve()
+    except Exception:           # noqa: BLE001 - the cases themselves will report it
+        traceback.print_exc()
+
+
 def worker():
     channel = os.fdopen(os.dup(1), "w")
     os.dup2(2, 1)                                      # library output goes to stderr
     import knitfem
+    warm_up()
     channel.write(json.dumps({"knitfem": knitfem.__file__}) + "\n")
     channel.flush()
     for line in sys.stdin:
@@ -117,7 +134,7 @@ class Worker:
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=self.log, env=env, cwd=tempfile.gettempdir(),
                                      text=True, bufsize=1)
-        self.knitfem = json.loads(self._read(300.0))["knitfem"]
+        self.knitfem = json.loads(self._read(900.0))["knitfem"]     # import + warm-up
 
     def _read(self, timeout):
         ready, _, _ = select.select([self.proc.stdout], [], [], timeout)
