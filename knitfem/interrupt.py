@@ -45,6 +45,9 @@ class Interrupted(BaseException):
         self.signal_name = signal.Signals(self.signum).name
         super().__init__(f"interrupted by {self.signal_name}")
 
+    def __reduce__(self):
+        return (type(self), (self.signum,))
+
     @property
     def exit_code(self):
         """128 + the signal number: 130 for SIGINT, 143 for SIGTERM."""

@@ -83,6 +83,9 @@ class OptionError(ValueError):
         super().__init__(message)
         self.option = option
 
+    def __reduce__(self):
+        return (type(self), (self.option, str(self)))
+
 
 def fmt(x):
     """A number with 6 significant digits (1e-300 stays 1e-300, 0.2705 0.2705)."""

@@ -11,7 +11,7 @@ from knitfem.contact import PenaltyLaw, SegmentContact, brute_force_pairs, candi
 from knitfem.contact.master import bulge, neighbours
 from knitfem.contact.narrow import pair_forces
 from knitfem.solve.continuation import continuation
-from knitfem.verify.cases import yarn_on_yarn
+from knitfem.verify.cases import crossed_beams, yarn_on_yarn   # d = 2 R
 
 R = 0.5                                           # yarn radius
 
@@ -24,25 +24,6 @@ def test_penalty_law_is_c1_and_linear_beyond_contact():
     for x in (0.1, 0.05, 0.0, -0.3):
         assert abs(-(law.energy(x + e) - law.energy(x - e)) / (2 * e) - law.force(x)) < 1e-6
     assert abs(law.force(-1e-12) - law.force(1e-12)) < 1e-9
-
-
-def crossed_beams(push, elements=40, E=1e4):
-    """Beam A along x and beam B along y, both clamped-clamped, B starting
-    above A (gap 0.03 d, beyond the law's reach of 0.05 r) and its ends pushed
-    down by ``push``.  The crossing lies off the nodes of both beams: where a
-    slave Gauss point faces a master node exactly, the energy is only C1 in
-    that node (the master polyline may kink there) and Newton slows down."""
-    section = Section.circle(2 * R, E=E, nu=0.3)
-    model = BeamModel()
-    a = model.add_rod(Rod.straight((-5, 0, 0), (1, 0, 0), 10.0, elements, section))
-    b = model.add_rod(Rod.straight((0.07, -5.05, 2 * R + 0.06), (0, 1, 0), 10.0, elements,
-                                   section))
-    model.clamp(a, "start")
-    model.clamp(a, "end")
-    for end in ("start", "end"):
-        model.prescribe(b, end, displacement=(0, 0, -push), rotation=(0, 0, 0))
-    model.contact()
-    return model
 
 
 def force_on_rod(rod, which, ends, grads):

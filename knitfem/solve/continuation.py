@@ -84,6 +84,10 @@ class ContinuationError(RuntimeError):
         super().__init__(message)
         self.branch = branch
 
+    def __reduce__(self):
+        # picklable (process pools hand errors back to the parent)
+        return (type(self), (str(self), self.branch))
+
 
 class Bordered:
     """The system [[J, b], [c^T, d]] with ``solve(rhs)``: block elimination on

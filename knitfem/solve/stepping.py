@@ -30,6 +30,9 @@ class SteppingError(NewtonError):
         super().__init__(reason, message, state, history)
         self.steps = steps
 
+    def __reduce__(self):
+        return (type(self), (self.reason, str(self), self.state, self.history, self.steps))
+
 
 @dataclass
 class Step:

@@ -143,3 +143,23 @@ def yarn_on_yarn(line_load, factor=None, diameter=1.0, E=1e3):
     model.gravity((0, 0, -line_load / section.line_density))
     model.contact(**({} if factor is None else {"factor": factor}))
     return model
+
+
+def crossed_beams(push, factor=None, elements=40, E=1e4, diameter=1.0):
+    """Beam A along x and beam B along y (length 10), both clamped-clamped, B
+    starting above A (gap 0.06, beyond the law's reach) and its ends pushed
+    down by ``push``; penalty contact with ``factor`` (default the library's).
+    The crossing lies off the nodes of both beams: where a slave Gauss point
+    faces a master node exactly, the energy is only C1 in that node (the master
+    polyline may kink there) and Newton slows down."""
+    section = Section.circle(diameter, E=E, nu=0.3)
+    model = BeamModel()
+    a = model.add_rod(Rod.straight((-5, 0, 0), (1, 0, 0), 10.0, elements, section))
+    b = model.add_rod(Rod.straight((0.07, -5.05, diameter + 0.06), (0, 1, 0), 10.0, elements,
+                                   section))
+    model.clamp(a, "start")
+    model.clamp(a, "end")
+    for end in ("start", "end"):
+        model.prescribe(b, end, displacement=(0, 0, -push), rotation=(0, 0, 0))
+    model.contact(**({} if factor is None else {"factor": factor}))
+    return model

@@ -4,6 +4,7 @@ Lengths are fractions of the rod length L unless stated; loads are in the
 dimensionless forms the literature uses (P L^2 / EI, M L / EI).
 """
 import numpy as np
+from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 
@@ -38,6 +39,39 @@ def elastica_tip_load(alpha):
     k2, phi = k2_phi(theta)
     deflection = 1.0 - 2.0 / np.sqrt(a) * (ellipe(k2) - ellipeinc(phi, k2))
     return np.sqrt(2.0 * np.sin(theta) / a), deflection, theta
+
+
+def extensible_elastica_tip(alpha, EA, GA, EI=1.0):
+    """Tip (x, y) of a cantilever (L = 1, along +x) under a dead tip force
+    -alpha EI along y, extensible (EA) and shearable (GA): the planar rod
+    equations shot on the root moment to 1e-12, on the branch nearest the
+    inextensible elastica (Bisshopp & Drucker).  Reference of the stress table
+    (studies/stress_cases.py) and of the thick-rod tests."""
+    P = alpha * EI
+    F = np.array([0.0, -P])
+
+    def rhs(_, y):
+        th, m = y[2], y[3]
+        c, s = np.cos(th), np.sin(th)
+        N, V = F[0] * c + F[1] * s, -F[0] * s + F[1] * c
+        dx = (1 + N / EA) * np.array([c, s]) + V / GA * np.array([-s, c])
+        return [dx[0], dx[1], m / EI, -(dx[0] * F[1] - dx[1] * F[0])]
+
+    def shoot(m0):
+        return solve_ivp(rhs, [0, 1], [0, 0, 0, m0], rtol=1e-12, atol=1e-13,
+                         method="DOP853").y[:, -1]
+
+    x0, _, _ = elastica_tip_load(alpha)
+    guess = -P * x0                      # root moment of the inextensible elastica
+    for width in (0.1, 0.2, 0.4):       # the nearest bracket: thick rods stretch and shear
+        lo, hi = sorted((guess * (1 - width), guess * (1 + width)))
+        if shoot(lo)[3] * shoot(hi)[3] < 0:
+            break
+    else:
+        raise ValueError(f"no root moment within 40 % of the elastica's (alpha = {alpha}, "
+                         f"EA = {EA}, GA = {GA}): the rod is too soft for this reference")
+    m0 = brentq(lambda m: shoot(m)[3], lo, hi, xtol=1e-14, rtol=1e-14)
+    return shoot(m0)[:2]
 
 
 def greenhill_clamped():
@@ -75,7 +109,6 @@ def arc_tip_under_dead_load(force, radius, angle, CN, CM):
     Discretisation-free reference for the 45-degree bend.  CN = (EA, GA2, GA3),
     CM = (GJ, EI2, EI3).
     """
-    from scipy.integrate import solve_ivp
     from scipy.optimize import fsolve
 
     F = np.asarray(force, dtype=float)
