@@ -99,8 +99,13 @@ def test_dask_local_cluster_gives_the_local_pool_results(tmp_path, pool_heat_map
         hm = heat_map(W[:3], C, out=tmp_path, scheduler=cluster.scheduler_address,
                       progress=False, **SCENE)
     assert hm.sweep.executor.startswith("Dask") and not hm.errors
-    assert np.array_equal(hm.height, pool_heat_map.height[:3], equal_nan=True)
-    assert np.array_equal(hm.critical, pool_heat_map.critical[:3])
+    # the same numbers up to summation order: in-process Dask threads share one
+    # process's BLAS / numba thread settings, the pool's workers do not (a
+    # bitwise comparison failed once in ~5 full runs)
+    assert np.allclose(hm.height, pool_heat_map.height[:3], rtol=1e-9, atol=1e-12,
+                       equal_nan=True)
+    assert np.allclose(hm.critical, pool_heat_map.critical[:3], rtol=1e-9, atol=1e-12,
+                       equal_nan=True)
 
 
 def test_resume_skips_done_points_and_reruns_failed_ones(tmp_path):
