@@ -1,0 +1,137 @@
+"""Benchmark of the fabric relaxation's iteration (issue 9): where the time
+of one minimisation iteration goes, and how it scales with the swatch.
+
+    python studies/bench_fabric.py --out studies/results/bench_fabric \\
+        [--sizes 3x4,5x5,10x10,10x35,25x35] [--repeat 5] [--runs DIR ...]
+
+For each swatch: the scene of ``knitfem curl`` (defaults, alpha 0.2), the
+homotopy at lam = 0.1 and ``--warm`` minimisation iterations (so that the
+yarns touch: at the knitted start no contact is active), then the median
+over ``--repeat`` of: the beam elements (energy, forces, Hessian blocks),
+the contact with friction (search, closest points, blocks), the whole
+energy + gradient (a line-search trial), the whole energy + gradient +
+sparse Hessian, the PSD model of the Hessian (used where it is indefinite)
+and the sparse Cholesky factorisation of H + mu D (the solve of one step).
+One BLAS / numba thread.  ``--runs`` adds the wall time and iterations of
+finished ``knitfem curl`` runs (their ``curl_*.json``) to the table.
+
+Writes OUT/bench_fabric.json and OUT/bench_fabric.md.
+"""
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+
+from knitfem.beam.element import element_forces  # noqa: E402
+from knitfem.beam.energy import EnergyProblem  # noqa: E402
+from knitfem.io import write_json  # noqa: E402
+from knitfem.scenes.fabric import FabricScene, Homotopy, build  # noqa: E402
+from knitfem.solve.minimize import _factor, minimize  # noqa: E402
+
+
+def median_time(function, repeat):
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))
+
+
+def measure(nw, nc, repeat, warm):
+    t = time.perf_counter()
+    scene = FabricScene(nw, nc)
+    model, _, info = build(scene)
+    built = time.perf_counter() - t
+    Homotopy(model, scene.alpha).apply(0.1)
+    state = model.initial_state()
+    contact = model.contact_model
+    contact.anchor_friction(state.x, state.q)
+    problem = EnergyProblem(model, 1.0)
+    state = minimize(problem, state, tol=0.0, max_iter=warm, raise_on_failure=False).state
+    asm = model.assembly
+    a, b = asm.elements
+
+    def beam():
+        element_forces(state.x[a], state.x[b], state.q[a], state.q[b], asm.h, asm.gamma0,
+                       asm.kappa0, asm.CN, asm.CM, True)
+    E, g, H, Hp = problem.evaluate(state, True)
+    D = np.maximum(np.abs(H.diagonal()), 1e-12 * np.abs(H.diagonal()).max())
+    model_psd = Hp()
+    row = {
+        "nw": nw, "nc": nc, "unknowns": int(info["free_dofs"]), "build_s": built,
+        "active_pairs": int(contact.report.active_pairs),
+        "beam_s": median_time(beam, repeat),
+        "contact_s": median_time(lambda: contact.blocks(state.x, state.q, True), repeat),
+        "energy_gradient_s": median_time(lambda: problem.evaluate(state, False), repeat),
+        "energy_gradient_hessian_s": median_time(lambda: problem.evaluate(state, True), repeat),
+        "psd_model_s": median_time(Hp, repeat),
+        "hessian_nnz": int(H.nnz),
+    }
+    try:
+        row["factor_s"] = median_time(lambda: _factor(H, D, 1e-3), repeat)
+    except Exception:                       # indefinite even with the damping: the PSD model
+        row["factor_s"] = median_time(lambda: _factor(model_psd, D, 1e-3), repeat)
+    row["iteration_s"] = row["energy_gradient_hessian_s"] + row["factor_s"] + \
+        2 * row["energy_gradient_s"]       # a step with two line-search trials
+    return row
+
+
+def runs_table(folders):
+    rows = []
+    for folder in folders:
+        for path in sorted(Path(folder).glob("curl_*.json")):
+            s = json.loads(path.read_text())
+            rows.append({k: s.get(k) for k in ("nw", "nc", "alpha", "dofs", "iterations",
+                                                "increments", "elapsed_s", "converged",
+                                                "residual", "curl")})
+    return rows
+
+
+def markdown(rows, runs):
+    lines = ["| swatch | unknowns | active pairs | beam | contact | E + g | E + g + H | "
+             "PSD model | Cholesky | one iteration (≈) |", "|---|" + "---:|" * 9]
+    for r in rows:
+        lines.append(f"| {r['nw']} × {r['nc']} | {r['unknowns']} | {r['active_pairs']} | "
+                     + " | ".join(f"{1e3 * r[k]:.1f} ms" for k in (
+                         "beam_s", "contact_s", "energy_gradient_s", "energy_gradient_hessian_s",
+                         "psd_model_s", "factor_s", "iteration_s")) + " |")
+    if runs:
+        lines += ["", "| run | α | unknowns | iterations | increments | wall time | converged | "
+                  "residual | curl |", "|---|---:|---:|---:|---:|---:|---|---:|---|"]
+        for r in runs:
+            lines.append(f"| {r['nw']} × {r['nc']} | {r['alpha']} | {r['dofs']} | "
+                         f"{r['iterations']} | {r['increments']} | {r['elapsed_s']:.0f} s | "
+                         f"{r['converged']} | {r['residual']:.1e} | {r['curl']} |")
+    return "\n".join(lines) + "\n"
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--out", default="studies/results/bench_fabric")
+    parser.add_argument("--sizes", default="3x4,5x5,10x10,10x35,25x35")
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--warm", type=int, default=10)
+    parser.add_argument("--runs", nargs="*", default=[])
+    args = parser.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for size in args.sizes.split(","):
+        nw, nc = (int(v) for v in size.lower().split("x"))
+        rows.append(measure(nw, nc, args.repeat, args.warm))
+        print(json.dumps(rows[-1]), flush=True)
+    runs = runs_table(args.runs)
+    write_json(out / "bench_fabric.json", {"iteration": rows, "runs": runs})
+    (out / "bench_fabric.md").write_text(markdown(rows, runs))
+    print(markdown(rows, runs))
+
+
+if __name__ == "__main__":
+    main()
