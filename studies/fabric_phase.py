@@ -60,7 +60,7 @@ def _curl_specs():
             if spec.flag in beam_only:
                 spec = replace(spec, when=(*_BEAM, "the bspline model has none"))
             specs.append(spec)
-        elif isinstance(spec, Check):
+        elif isinstance(spec, Check) and spec is not curl_command.RESUME:
             specs.append(spec)
     return specs
 

@@ -16,7 +16,7 @@ import pytest
 from knitfem import options
 from knitfem.cli import main
 from knitfem.scenes import knit as knit_command
-from knitfem.scenes import popup_command
+from knitfem.scenes import curl_command, popup_command
 
 FUZZ = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture,
@@ -181,7 +181,7 @@ def test_garbage_argument_lists_get_one_line(argv, monkeypatch, tmp_path):
     from knitfem.verify import gallery
     monkeypatch.chdir(tmp_path)
     for module, name in ((popup_command, "run"), (knit_command, "run"),
-                         (gallery, "_run_command")):
+                         (curl_command, "run"), (gallery, "_run_command")):
         monkeypatch.setattr(module, name, lambda args: 0)
     code, out, err = run(argv, seconds=30)
     assert "Traceback" not in err

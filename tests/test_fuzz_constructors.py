@@ -28,9 +28,15 @@ VEC = st.lists(st.floats(-10, 10), min_size=3, max_size=3)
 @pytest.fixture(autouse=True, scope="module")
 def address_space_limit():
     """A MemoryError instead of the kernel's OOM killer if a constructor asks for
-    too much (the machine is shared): at most 8 GiB of address space."""
+    too much (the machine is shared): at most 8 GiB of address space beyond
+    what the process already maps (earlier tests' thread pools and Dask
+    clusters leave several GiB mapped; an absolute 8 GiB failed everything)."""
     soft, hard = resource.getrlimit(resource.RLIMIT_AS)
-    resource.setrlimit(resource.RLIMIT_AS, (8 * 2**30, hard))
+    with open("/proc/self/statm") as f:
+        mapped = int(f.read().split()[0]) * resource.getpagesize()
+    limit = mapped + 8 * 2**30
+    resource.setrlimit(resource.RLIMIT_AS, (limit if hard == resource.RLIM_INFINITY
+                                            else min(limit, hard), hard))
     yield
     resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
@@ -58,6 +64,7 @@ def outcome(call, args, names):
     kwargs, odd = args
     try:
         return call(**kwargs)
+
     except ValueError as err:
         text = str(err)
         assert "\n" not in text.strip(), text

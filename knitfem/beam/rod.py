@@ -41,13 +41,17 @@ def _vector3(name, value):
     return a
 
 
+MAX_ELEMENTS = 10**7          # ~1 GB of nodes, frames and strains per rod
+
+
 def _elements(n):
     try:
-        ok = not isinstance(n, (bool, str)) and int(n) == n and int(n) >= 1
+        ok = not isinstance(n, (bool, str)) and int(n) == n and 1 <= int(n) <= MAX_ELEMENTS
     except (TypeError, ValueError, OverflowError):        # None, NaN, inf
         ok = False
     if not ok:
-        raise ValueError(f"elements must be an integer >= 1, got {n!r}")
+        # a float like 1.98e16 equals an integer: it tried to allocate petabytes
+        raise ValueError(f"elements must be an integer in [1, {MAX_ELEMENTS}], got {n!r}")
     return int(n)
 
 

@@ -53,6 +53,8 @@ def _resume_needs_out(v):
                "checkpoint)", True)
 
 
+RESUME = Check(_resume_needs_out)     # knitfem curl's own (not a sweep study's --resume)
+
 _NO_TWIST = ("model", "beam", "the bspline model has no torsional stiffness (no twist energy)")
 
 OPTIONS = OptionSet(
@@ -76,7 +78,7 @@ OPTIONS = OptionSet(
     Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
          help="bind-off stiffness relative to the yarn's"),
     Check(_yarn_fits),
-    Check(_resume_needs_out),
+    RESUME,
     Budget("memory", memory, ("--nw", "--nc", "--elements-per-loop")),
     Budget("run time", seconds, ("--nw", "--nc", "--elements-per-loop")),
 )
