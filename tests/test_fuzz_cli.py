@@ -150,6 +150,29 @@ def test_knit_option_combinations(chosen, check, tmp_path):
             assert code == 2 and flag in err, (flag, text, err)
 
 
+CURL_BASE = ["curl", "--nw", "3", "--nc", "4", "--quiet"]
+CURL_FLAGS = [s.flag for s in curl_command.OPTIONS.numbers]
+
+
+@FUZZ
+@given(chosen=st.lists(pairs(curl_command.OPTIONS, CURL_FLAGS), min_size=1, max_size=4).map(dict),
+       model=st.sampled_from([[], ["--model", "bspline"]]))
+def test_curl_option_combinations(chosen, model, tmp_path, monkeypatch):
+    """Validation only (a relaxation takes minutes: the run is a stub): every
+    combination is accepted or refused in one line naming an option; a lone
+    value outside its own range is refused naming that option."""
+    monkeypatch.setattr(curl_command, "run", lambda args: 0)
+    argv = list(CURL_BASE) + model
+    for flag, text in chosen.items():
+        argv += [flag, text]
+    code, out, err = run(argv, seconds=30)
+    check_answer("curl", code, out, err, None, list(chosen))
+    if len(chosen) == 1:
+        (flag, text), = chosen.items()
+        if own_refusal(curl_command.OPTIONS, flag, text) is not None:
+            assert code == 2 and flag in err, (flag, text, err)
+
+
 @settings(max_examples=30, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(command=st.sampled_from(["popup", "knit", "gallery"]),
@@ -192,7 +215,7 @@ def test_garbage_argument_lists_get_one_line(argv, monkeypatch, tmp_path):
 
 def test_the_fuzzed_options_are_all_the_numeric_ones():
     """Nothing escapes the fuzzer: it draws from each command's OptionSet."""
-    for module in (popup_command, knit_command):
+    for module in (popup_command, knit_command, curl_command):
         parser = argparse.ArgumentParser()
         module.OPTIONS.add_to(parser)
         numeric = {a.option_strings[0] for a in parser._actions
