@@ -26,7 +26,6 @@ record, the relaxed yarns curl.vtu and the model's full summary curl.json).
 Exit 0, 3 when a point failed, 2 on bad options, 130 / 143 when interrupted.
 """
 import argparse
-from dataclasses import replace
 import os
 import sys
 import time
@@ -46,23 +45,16 @@ SMALLEST = (3, 4)             # (nw, nc): the curl analysis needs 3 wales and 4 
 LARGEST = 200
 OVERHEAD_S = 30.0             # s per B-spline point besides relaxing (build, stability, files)
 
-_BEAM = ("model", "beam")
 _BSPLINE = ("model", "bspline")
 
 
 def _curl_specs():
-    """The ``knitfem curl`` options that make sense per point (one definition,
-    its ranges and its yarn check), beam-only ones refused with bspline."""
-    beam_only = {"--elements-per-loop", "--gj-over-ei", "--friction"}
-    specs = []
-    for spec in curl_command.OPTIONS.specs:
-        if isinstance(spec, Real) and spec.flag not in ("--nw", "--nc", "--max-time"):
-            if spec.flag in beam_only:
-                spec = replace(spec, when=(*_BEAM, "the bspline model has none"))
-            specs.append(spec)
-        elif isinstance(spec, Check) and spec is not curl_command.RESUME:
-            specs.append(spec)
-    return specs
+    """The ``knitfem curl`` options that make sense per point (one definition:
+    its ranges, its yarn check, its model conditions — beam-only options
+    refused with bspline, ``--max-time`` with beam)."""
+    return [spec for spec in curl_command.OPTIONS.specs
+            if (isinstance(spec, Real) and spec.flag not in ("--nw", "--nc"))
+            or (isinstance(spec, Check) and spec is not curl_command.RESUME)]
 
 
 def _counts(flag, text, smallest):
@@ -86,9 +78,6 @@ def _grid(v):
 
 OPTIONS = OptionSet(
     *_curl_specs(),
-    Real("--max-time", 1800.0, "(0, 1e+06]", when=(*_BSPLINE, "the beam relaxation has no "
-         "time limit"), help="seconds of relaxation per point; then its last state is kept "
-         "as not converged"),
     Integer("--max-steps", None, "[1, 1e+09]", when=(*_BSPLINE, "the beam relaxation has "
             "no step limit"), help="FIRE steps per point (default: none; a step limit "
             "repeats bit for bit, a time limit depends on the load)"),
