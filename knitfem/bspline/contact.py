@@ -115,6 +115,15 @@ class PairCache:
         return self.pairs
 
 
+@njit(cache=True, inline="always")
+def _separation(points, a, b):
+    """p_a - p_b and its squared length, without allocating (the kernels' hot loop)."""
+    dx = points[a, 0] - points[b, 0]
+    dy = points[a, 1] - points[b, 1]
+    dz = points[a, 2] - points[b, 2]
+    return dx, dy, dz, dx * dx + dy * dy + dz * dz
+
+
 @njit(cache=True)
 def _pair_forces(points, weights, pairs, k, r, smooth, grad):
     energy = 0.0
@@ -122,10 +131,7 @@ def _pair_forces(points, weights, pairs, k, r, smooth, grad):
     reach2 = 4.0 * r * r
     for m in range(pairs.shape[0]):
         a, b = pairs[m, 0], pairs[m, 1]
-        dx = points[a, 0] - points[b, 0]
-        dy = points[a, 1] - points[b, 1]
-        dz = points[a, 2] - points[b, 2]
-        d2 = dx * dx + dy * dy + dz * dz
+        dx, dy, dz, d2 = _separation(points, a, b)
         if d2 >= reach2:
             continue
         u = d2 / reach2                                    # (d / 2r)^2
@@ -159,10 +165,7 @@ def _pair_damping(points, velocities, weights, pairs, r, cn, ct, out):
     reach2 = 4.0 * r * r
     for m in range(pairs.shape[0]):
         a, b = pairs[m, 0], pairs[m, 1]
-        dx = points[a, 0] - points[b, 0]
-        dy = points[a, 1] - points[b, 1]
-        dz = points[a, 2] - points[b, 2]
-        d2 = dx * dx + dy * dy + dz * dz
+        dx, dy, dz, d2 = _separation(points, a, b)
         if d2 >= reach2:
             continue
         d = np.sqrt(d2)
