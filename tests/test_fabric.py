@@ -148,3 +148,26 @@ def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_pa
     assert summary["model"] == "bspline" and summary["converged"] is False
     assert "time limit" in summary["message"]
     assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--friction", "0.1"]) == 2
+
+
+def test_a_failed_increment_retries_from_the_last_equilibriums_friction_anchors(monkeypatch):
+    """The slips carried from round to round belong to the equilibrium they
+    were found at: an increment whose rounds re-anchored the friction and then
+    failed leaves the anchors (and their frames) of the last accepted
+    equilibrium in place, for the retry and for the failure's report."""
+    model, _, _ = build(FabricScene(3, 3))
+    contact = model.contact_model
+    state = model.initial_state()
+    contact.anchor_friction(state.x, state.q)
+    before = contact.friction_state()
+
+    def failing(model, state, lam, *args, **kwargs):
+        moved = state.x + 0.1 * model.rods[0].section.radius
+        contact.anchor_friction(moved, state.q)      # what a failed round leaves
+        assert contact.friction_state()[0] is not before[0]
+        return None, "failed on purpose"
+    monkeypatch.setattr(fabric_relax, "_increment", failing)
+    with pytest.raises(fabric_relax.FabricRelaxationError, match="failed on purpose"):
+        fabric_relax.relax_fabric(model, Homotopy(model, 0.05), state, dlam=0.1, dlam_min=0.06)
+    after = contact.friction_state()
+    assert after[0] is before[0] and after[1] is before[1]

@@ -72,6 +72,14 @@ class BeamContact:
         theta = rotation_vector(quat_multiply(q, quat_conjugate(self.anchor_q)))
         return theta, theta[self.nodes]
 
+    def friction_state(self):
+        """The friction anchors and their frames, to restore after a failed
+        increment (both are replaced, never mutated, by :meth:`anchor_friction`)."""
+        return self.anchors, self.anchor_q
+
+    def restore_friction(self, saved):
+        self.anchors, self.anchor_q = saved
+
     def anchor_friction(self, x, q, carry=True):
         """Anchor friction at positions x (n_nodes, 3) and frames q (n_nodes, 4):
         every Gauss point in contact there becomes an anchor with its normal

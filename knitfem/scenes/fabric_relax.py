@@ -143,6 +143,11 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
         creep = 1e-3 * min(radii) if radii else 1e-6 * model.length_scale()
     increments = []
     lam = float(lam)
+    contact = model.contact_model
+    # the slips carried from round to round are part of the equilibrium: a
+    # failed increment must retry from the last equilibrium's anchors, not
+    # from those its failed rounds left behind
+    saved = contact.friction_state() if contact is not None else None
     while lam < 1.0:
         target = min(1.0, lam + dlam)
         last = target == 1.0
@@ -153,6 +158,8 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
         if result is None:
             dlam *= 0.5
             homotopy.apply(lam)
+            if contact is not None:
+                contact.restore_friction(saved)
             if dlam < dlam_min:
                 raise FabricRelaxationError(
                     f"relaxation failed near homotopy lam = {lam + 2 * dlam:.4g} (increment "
@@ -161,6 +168,8 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
             continue
         increments.append(inc)
         state, lam = result.state, target
+        if contact is not None:
+            saved = contact.friction_state()
         if inc.iterations <= iterations:
             dlam = min(1.5 * dlam, dlam_max)
         if checkpoint is not None:
