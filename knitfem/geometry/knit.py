@@ -36,6 +36,7 @@ their legs, as a knit stitch pulled through from the back does.  Bind-off
 helices (separate yarns, :mod:`.bindoff`) wrap the heads of the top course
 and the sinkers of the bottom course.
 """
+import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 import math
@@ -361,6 +362,25 @@ def plain_knit_swatch(n_wale, n_course, w=4.0, c=3.0, radius=0.4, *, points_per_
         from .bindoff import bindoff_helices
         yarns.extend(bindoff_helices(loop, n_wale, n_course, spacing))
     return Swatch(loop, n_wale, n_course, tuple(yarns))
+
+
+def mirror_swatch(swatch):
+    """The swatch reflected in the plane x = its centre, wales relabelled
+    right to left: still a plain knit with the knit face at +z, but knitted
+    from the other side (the yarn's tails at the mirrored edges) and with
+    bind-off helices of the other hand.  Our swatch is not mirror symmetric
+    (the helices are chiral, the tails on one side), so this is how mirror
+    symmetry of the mechanics is tested: the mirrored swatch must relax to
+    the mirrored shape, its left and right rolls swapped."""
+    x = swatch.points[:, 0]
+    centre = 0.5 * (x.min() + x.max())
+    flip = np.array([-1.0, 1.0, 1.0])
+
+    def mirrored(y):
+        wale = np.where(y.wale >= 0, swatch.n_wale - 1 - y.wale, y.wale)
+        return dataclasses.replace(y, points=y.points * flip + [2.0 * centre, 0.0, 0.0],
+                                   tangents=y.tangents * flip, wale=wale)
+    return dataclasses.replace(swatch, yarns=tuple(mirrored(y) for y in swatch.yarns))
 
 
 def swatch_ties(swatch):

@@ -16,7 +16,7 @@ atomically) from which ``resume`` continues after a kill.
 import json
 import os
 import time
-from dataclasses import fields
+from dataclasses import MISSING, fields
 from pathlib import Path
 
 import numpy as np
@@ -50,7 +50,10 @@ def _load_checkpoint(path, scene, model):
     if not path.exists():
         return None
     data = np.load(path)
-    if str(data["scene"]) != json.dumps(scene.as_dict(), sort_keys=True):
+    # a checkpoint written before a scene field existed ran with its default
+    defaults = {f.name: f.default for f in fields(FabricScene) if f.default is not MISSING}
+    saved = {**defaults, **json.loads(str(data["scene"]))}
+    if json.dumps(saved, sort_keys=True) != json.dumps(scene.as_dict(), sort_keys=True):
         raise ValueError(f"--resume: {path} holds a run with other parameters; remove it or "
                          "give the same options")
     contact = model.contact_model

@@ -47,7 +47,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..beam import BeamModel, Rod, Section
-from ..geometry.knit import plain_knit_swatch, swatch_ties
+from ..geometry.knit import mirror_swatch, plain_knit_swatch, swatch_ties
 
 DEFAULT_EA_OVER_EI = 800.0      # 1/mm^2: 3 % of a solid rod's 4/r^2 at r = 0.4 mm
 
@@ -72,6 +72,7 @@ class FabricScene:
     slip: float = 0.02              # friction's stick slip, fraction of the radius
     ties: bool = True
     EI: float = 1.0                 # N mm^2 (nominal: only ratios matter)
+    mirror: bool = False            # knitted from the other side (geometry.mirror_swatch)
 
     def as_dict(self):
         return asdict(self)
@@ -120,6 +121,8 @@ def build(scene, max_tries=10):
         swatch = plain_knit_swatch(scene.nw, scene.nc, scene.w, scene.c,
                                    scene.radius * (1.0 + delta),
                                    points_per_loop=scene.elements_per_loop)
+        if scene.mirror:
+            swatch = mirror_swatch(swatch)
         model = _model(scene, swatch)
         min_gap = model.contact_report(model.initial_state()).min_gap
         if min_gap >= 1.02 * g0:
