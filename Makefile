@@ -13,6 +13,9 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/python -m pip install --quiet --upgrade pip
 	$(VENV)/bin/python -m pip install --quiet -e '.[test,dask]'
+	@sh scripts/system-deps.sh
+	$(VENV)/bin/python -m pip install --quiet -e '.[cholmod]' || \
+		echo "knitfem: scikit-sparse (CHOLMOD) did not build; sparse Cholesky uses QDLDL"
 	touch $(STAMP)
 
 system-deps:

@@ -27,11 +27,13 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
     os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
+from scipy import sparse  # noqa: E402
 
 from knitfem.beam.element import element_forces  # noqa: E402
 from knitfem.beam.energy import EnergyProblem  # noqa: E402
 from knitfem.io import write_json  # noqa: E402
 from knitfem.scenes.fabric import FabricScene, Homotopy, build  # noqa: E402
+from knitfem.solve.factor import Cholesky, NotPositiveDefinite, cholmod_available  # noqa: E402
 from knitfem.solve.minimize import _factor, minimize  # noqa: E402
 
 
@@ -74,10 +76,15 @@ def measure(nw, nc, repeat, warm):
         "psd_model_s": median_time(Hp, repeat),
         "hessian_nnz": int(H.nnz),
     }
+    matrix = H
     try:
-        row["factor_s"] = median_time(lambda: _factor(H, D, 1e-3), repeat)
-    except Exception:                       # indefinite even with the damping: the PSD model
-        row["factor_s"] = median_time(lambda: _factor(model_psd, D, 1e-3), repeat)
+        _factor(H, D, 1e-3)
+    except NotPositiveDefinite:             # indefinite even with the damping: the PSD model
+        matrix = model_psd
+    A = sparse.csc_matrix(matrix + sparse.diags(1e-3 * D))
+    for backend in ("qdldl", "cholmod") if cholmod_available() else ("qdldl",):
+        row[f"factor_{backend}_s"] = median_time(lambda: Cholesky(A, backend=backend), repeat)
+    row["factor_s"] = row.get("factor_cholmod_s", row["factor_qdldl_s"])
     row["iteration_s"] = row["energy_gradient_hessian_s"] + row["factor_s"] + \
         2 * row["energy_gradient_s"]       # a step with two line-search trials
     return row
@@ -96,12 +103,14 @@ def runs_table(folders):
 
 def markdown(rows, runs):
     lines = ["| swatch | unknowns | active pairs | beam | contact | E + g | E + g + H | "
-             "PSD model | Cholesky | one iteration (≈) |", "|---|" + "---:|" * 9]
+             "PSD model | Cholesky QDLDL | Cholesky CHOLMOD | one iteration (≈) |",
+             "|---|" + "---:|" * 10]
     for r in rows:
         lines.append(f"| {r['nw']} × {r['nc']} | {r['unknowns']} | {r['active_pairs']} | "
-                     + " | ".join(f"{1e3 * r[k]:.1f} ms" for k in (
+                     + " | ".join(f"{1e3 * r[k]:.1f} ms" if k in r else "–" for k in (
                          "beam_s", "contact_s", "energy_gradient_s", "energy_gradient_hessian_s",
-                         "psd_model_s", "factor_s", "iteration_s")) + " |")
+                         "psd_model_s", "factor_qdldl_s", "factor_cholmod_s", "iteration_s"))
+                     + " |")
     if runs:
         lines += ["", "| run | α | unknowns | iterations | increments | wall time | converged | "
                   "residual | curl |", "|---|---:|---:|---:|---:|---:|---|---:|---|"]

@@ -10,16 +10,21 @@ from knitfem.solve.psd import psd_project
 from knitfem.verify import cases, closed_form
 
 
-def test_psd_projection_equals_the_eigen_decomposition(rng):
-    """Jacobi projection = V max(L, 0) V^T from numpy's eigh (1e-12), and PSD
-    blocks come back unchanged."""
-    A = rng.normal(size=(50, 12, 12))
-    A = A + np.swapaxes(A, 1, 2)
-    w, V = np.linalg.eigh(A)
-    reference = np.einsum("eij,ej,ekj->eik", V, np.maximum(w, 0.0), V)
-    assert np.abs(psd_project(A) - reference).max() < 1e-12 * np.abs(A).max()
-    S = A @ np.swapaxes(A, 1, 2)
-    assert np.abs(psd_project(S) - S).max() < 1e-12 * np.abs(S).max()
+def test_psd_projection_clips_the_negative_eigenvalues_of_known_blocks(rng):
+    """Blocks built as Q L Q^T from random orthogonal Q and chosen eigenvalues
+    (half of them negative, spanning 1e-8...1e2 as a beam element's do) come
+    back as Q max(L, 0) Q^T (1e-12 of the largest), PSD blocks unchanged, the
+    non-symmetric part ignored."""
+    Q = np.linalg.qr(rng.normal(size=(50, 12, 12)))[0]
+    L = rng.choice([-1.0, 1.0], size=(50, 12)) * 10.0 ** rng.uniform(-8, 2, size=(50, 12))
+    A = np.einsum("eij,ej,ekj->eik", Q, L, Q)
+    reference = np.einsum("eij,ej,ekj->eik", Q, np.maximum(L, 0.0), Q)
+    skew = rng.normal(size=A.shape)
+    skew = skew - np.swapaxes(skew, 1, 2)
+    assert np.abs(psd_project(A + skew) - reference).max() < 1e-12 * np.abs(L).max()
+    S = np.einsum("eij,ej,ekj->eik", Q, np.abs(L), Q)
+    assert np.abs(psd_project(S) - S).max() < 1e-12 * np.abs(L).max()
+    assert psd_project(np.zeros((0, 12, 12))).shape == (0, 12, 12)
 
 
 def test_minimisation_reaches_the_elastica_from_a_straight_rod():
@@ -104,3 +109,24 @@ def test_free_body_holds_one_node_and_its_reactions_vanish():
     assert np.linalg.norm(reaction) < 1e-8 * model.force_scale()
     gamma, kappa, _ = model.assembly.strains(step.state.x, step.state.q)
     assert np.allclose(kappa[:, 2], 3.0, atol=1e-8)
+
+
+@pytest.mark.parametrize("backend", ["qdldl", "cholmod"])
+def test_sparse_cholesky_solves_and_refuses_what_is_not_positive_definite(rng, backend):
+    """Both backends of the modified Newton step solve an SPD system to
+    round-off (1e-12 relative residual) and raise NotPositiveDefinite for an
+    indefinite one; an unknown backend is refused by name."""
+    from scipy import sparse
+    from knitfem.solve.factor import Cholesky, NotPositiveDefinite, cholmod_available
+    if backend == "cholmod" and not cholmod_available():
+        pytest.skip("scikit-sparse (the cholmod extra) is not installed")
+    n = 300
+    B = sparse.random(n, n, density=0.02, random_state=1, format="csc")
+    A = sparse.csc_matrix(B @ B.T + sparse.identity(n))
+    b = rng.normal(size=n)
+    x = Cholesky(A, backend=backend).solve(b)
+    assert np.linalg.norm(A @ x - b) <= 1e-12 * np.linalg.norm(b) * np.abs(A).sum(axis=1).max()
+    with pytest.raises(NotPositiveDefinite):
+        Cholesky(A - 2.0 * sparse.identity(n, format="csc") * abs(A).max(), backend=backend)
+    with pytest.raises(ValueError, match="backend"):
+        Cholesky(A, backend="umfpack")

@@ -91,11 +91,16 @@ class LDLt:
 class Cholesky:
     """A = L L^T of a symmetric positive definite sparse matrix (see module docstring).
 
-    ``backend`` is 'cholmod' or 'qdldl'.  Raises NotPositiveDefinite."""
+    ``backend`` is 'cholmod' or 'qdldl' (None: CHOLMOD when installed).
+    Raises NotPositiveDefinite."""
 
-    def __init__(self, A, *, analysis=None):
+    def __init__(self, A, *, analysis=None, backend=None):
+        if backend not in (None, "cholmod", "qdldl"):
+            raise ValueError(f"backend must be 'cholmod', 'qdldl' or None, got {backend!r}")
+        if backend == "cholmod" and _cholmod is None:
+            raise ValueError("backend 'cholmod' needs scikit-sparse (the `cholmod` extra)")
         A = sparse.csc_matrix(A, dtype=float)
-        if _cholmod is not None:
+        if _cholmod is not None and backend != "qdldl":
             try:
                 if analysis is not None:
                     self._factor = analysis.cholesky(A)
