@@ -138,8 +138,8 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
 
 def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_path, capsys):
     """``knitfem curl --model bspline`` (it was an ImportError): a 2 s time
-    limit ends the relaxation unconverged, which the exit code (3) and the
-    JSON say; beam-only options are refused."""
+    limit ends the relaxation unconverged, which the exit code (3), the JSON
+    and (under --quiet) one line on stderr say; beam-only options are refused."""
     from knitfem.cli import main
     out = tmp_path / "b.json"
     assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--max-time", "2",
@@ -147,6 +147,9 @@ def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_pa
     summary = json.loads(out.read_text())
     assert summary["model"] == "bspline" and summary["converged"] is False
     assert "time limit" in summary["message"]
+    # --quiet hides the progress, not the failure: one line on stderr
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("knitfem curl: ") and "converged False" in err[-1]
     assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--friction", "0.1"]) == 2
 
 

@@ -12,6 +12,7 @@ x unknowns x ITERATIONS_PER_LOOP x loops^0.25`` seconds; refused above the
 library's time limit unless ``--no-limits``.
 """
 import math
+import sys
 
 from ..options import Budget, Check, Integer, OptionSet, Real, fmt, refuse
 
@@ -131,4 +132,7 @@ def run(args):
             f"relaxation failed: {summary['error']}"
         write_summary(args, summary, f"{verdict}, converged {summary['converged']}, "
                       f"stable {summary['stable']}; wrote {args.json}")
-    return 0 if summary.get("error") is None and summary["converged"] else 3
+    failed = summary.get("error") is not None or not summary["converged"]
+    if failed and args.quiet:            # quiet hides the progress, never a failure
+        print(f"knitfem curl: {verdict}, converged {summary['converged']}", file=sys.stderr)
+    return 3 if failed else 0
