@@ -59,8 +59,9 @@ def run_folder(args):
         return nullcontext()
     from .io.run import RunFolder
     outputs = args.outputs(args) if callable(args.outputs) else args.outputs
-    parameters = {k: v for k, v in vars(args).items()
-                  if k not in ("outputs", "remove_listed")}
+    options = getattr(args, "options", None)
+    skip = {"outputs", "remove_listed"} | (options.inapplicable(args) if options else set())
+    parameters = {k: v for k, v in vars(args).items() if k not in skip}
     return RunFolder(args.out, f"knitfem {args.command}", parameters, outputs=outputs,
                      remove_listed=args.remove_listed)
 

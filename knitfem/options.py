@@ -264,6 +264,12 @@ class OptionSet:
                 spec.run(args)
         return args
 
+    def inapplicable(self, args):
+        """Dests of the options that do not apply to ``args`` (their ``when``
+        fails): they keep a default for the estimates but describe no run."""
+        return {s.dest for s in self.numbers
+                if s.when is not None and getattr(args, s.when[0], None) != s.when[1]}
+
     @staticmethod
     def notice(args):
         """A line announcing a long run (estimated run time above NOTICE), or None."""

@@ -143,7 +143,11 @@ def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_pa
     from knitfem.cli import main
     out = tmp_path / "b.json"
     assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--max-time", "2",
-                 "--quiet", "--json", str(out)]) == 3
+                 "--quiet", "--no-render", "--json", str(out), "--out", str(tmp_path / "run")]) == 3
+    # the run's manifest lists the options that describe it, not the beam's
+    parameters = json.loads((tmp_path / "run" / "run.json").read_text())["parameters"]
+    assert parameters["max_time"] == 2.0 and parameters["model"] == "bspline"
+    assert not {"friction", "elements_per_loop", "gj_over_ei"} & set(parameters)
     summary = json.loads(out.read_text())
     assert summary["model"] == "bspline" and summary["converged"] is False
     assert "time limit" in summary["message"]
