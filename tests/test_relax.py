@@ -115,7 +115,8 @@ def test_free_body_holds_one_node_and_its_reactions_vanish():
 def test_sparse_cholesky_solves_and_refuses_what_is_not_positive_definite(rng, backend):
     """Both backends of the modified Newton step solve an SPD system to
     round-off (1e-12 relative residual) and raise NotPositiveDefinite for an
-    indefinite one; an unknown backend is refused by name."""
+    indefinite or numerically singular one; an unknown backend is refused by
+    name."""
     from scipy import sparse
     from knitfem.solve.factor import Cholesky, NotPositiveDefinite, cholmod_available
     if backend == "cholmod" and not cholmod_available():
@@ -128,5 +129,12 @@ def test_sparse_cholesky_solves_and_refuses_what_is_not_positive_definite(rng, b
     assert np.linalg.norm(A @ x - b) <= 1e-12 * np.linalg.norm(b) * np.abs(A).sum(axis=1).max()
     with pytest.raises(NotPositiveDefinite):
         Cholesky(A - 2.0 * sparse.identity(n, format="csc") * abs(A).max(), backend=backend)
+    # positive definite in exact arithmetic, but one pivot 1e-16 of the largest:
+    # numerically singular (CHOLMOD's own test is only pivot <= 0), and a step
+    # along that direction would be round-off amplified 1e16 times
+    tiny = 1e-16 * abs(A).max()
+    with pytest.raises(NotPositiveDefinite):
+        Cholesky(sparse.block_diag([A, sparse.csc_matrix([[tiny]])], format="csc"),
+                 backend=backend)
     with pytest.raises(ValueError, match="backend"):
         Cholesky(A, backend="umfpack")

@@ -7,17 +7,17 @@
                  [--no-render] [--quiet] [--no-limits]
 
 Cost model (measured on the loaded 2-core machine: a 5 x 5 swatch, 3 012
-unknowns, about 1 700 minimisation iterations of ~0.1 s): ``S_PER_DOF_ITERATION
-x unknowns x ITERATIONS_PER_LOOP x loops^0.25`` seconds; refused above the
-library's time limit unless ``--no-limits``.
+unknowns, about 2 600 minimisation iterations of ~45 ms): ``S_PER_DOF_ITERATION
+x unknowns x ITERATIONS x loops^0.25`` seconds; refused above the library's
+time limit unless ``--no-limits``.
 """
 import math
 import sys
 
 from ..options import Budget, Check, Integer, OptionSet, Real, fmt, refuse
 
-S_PER_DOF_ITERATION = 3e-5        # s per unknown per minimisation iteration (5 x 5: 0.1 s / 3 k)
-ITERATIONS = 1700                 # minimisation iterations of a 5 x 5 relaxation
+S_PER_DOF_ITERATION = 1.5e-5      # s per unknown per minimisation iteration (5 x 5: 45 ms / 3 k)
+ITERATIONS = 2600                 # minimisation iterations of a 5 x 5 relaxation
 
 
 def unknowns(v):
