@@ -1,0 +1,102 @@
+"""The paper's Fig. 5c analogue: relaxed swatches side by side.
+
+    python studies/fabric_curl_panel.py --runs DIR [DIR ...] --out studies/results/fabric_curl
+
+Reads every ``curl_<nw>x<nc>.json`` (and its ``.vtu``) of ``knitfem curl``
+runs in the given folders, renders each relaxed swatch that lacks them (front
+and iso views, tubes coloured by curvature; a run made with ``--no-render``
+gets its pictures here) and writes ``OUT/curl_panel.png``: one column per
+swatch, ordered by N_w / N_c, titled with its size, curl type, edge rolls and
+whether it converged.  Failed runs (no relaxed shape) are listed, not drawn.
+"""
+import argparse
+import json
+import shutil
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+VIEWS = {"front": (0.0, 0.0, 1.0), "iso": (1.0, -1.0, 0.8)}
+
+
+def finished_runs(folders):
+    """(summary, vtu path) of every converged or unconverged-but-relaxed run."""
+    runs = []
+    for folder in folders:
+        for path in sorted(Path(folder).glob("curl_*.json")):
+            summary = json.loads(path.read_text())
+            vtu = path.with_suffix(".vtu")
+            if summary.get("curl") is not None and vtu.exists():
+                runs.append((summary, vtu))
+            else:
+                print(f"{path}: no relaxed shape ({summary.get('error')})")
+    return sorted(runs, key=lambda r: r[0]["nw"] / r[0]["nc"])
+
+
+def render(summary, vtu, out):
+    """front and iso PNGs of a run (made once, next to the panel)."""
+    import meshio
+    from knitfem.viz.render import render_rods
+    name = vtu.stem
+    # runs of one size from different folders must not share pictures
+    tag = name if vtu.parent.resolve() == out.resolve() else f"{vtu.parent.name}_{name}"
+    paths = {view: out / f"{tag}_{view}.png" for view in VIEWS}
+    beside = {view: vtu.parent / f"{name}_{view}.png" for view in VIEWS}
+    missing = [v for v in VIEWS if not paths[v].exists()]
+    if not missing:
+        return paths
+    if all(beside[v].exists() for v in missing) and vtu.parent.resolve() != out.resolve():
+        for v in missing:
+            shutil.copy(beside[v], paths[v])
+        return paths
+    mesh = meshio.read(vtu)
+    radius = summary["scene"]["radius"]
+    for view in missing:
+        render_rods(paths[view], mesh, radius, scalars="curvature", view=VIEWS[view],
+                    title=f"{summary['nw']} x {summary['nc']}: {summary['curl']} curl ({view})",
+                    camera_up=(0, 1, 0) if view == "front" else (0, 0, 1))
+    return paths
+
+
+def panel(runs, out):
+    fig, axes = plt.subplots(2, len(runs), figsize=(4.2 * len(runs), 7.5), squeeze=False)
+    for k, (summary, vtu) in enumerate(runs):
+        paths = render(summary, vtu, out)
+        r = summary["roll_deg"]
+        mirrored = " (mirrored)" if summary["scene"].get("mirror") else ""
+        axes[0, k].set_title(f"N_w × N_c = {summary['nw']} × {summary['nc']}{mirrored}, α = "
+                             f"{summary['alpha']:g}\n{summary['curl']} curl"
+                             + ("" if summary["converged"] else " (NOT converged)")
+                             + f"\nrolls L/R/T/B {r['left']:.0f}/{r['right']:.0f}/"
+                             f"{r['top']:.0f}/{r['bottom']:.0f}°", fontsize=10)
+        for row, view in enumerate(VIEWS):
+            axes[row, k].imshow(plt.imread(paths[view]))
+            axes[row, k].axis("off")
+    fig.suptitle("Relaxed plain-knit swatches (beam model); edge rolls in degrees, positive "
+                 "toward the front (knit face, +z)", fontsize=12)
+    fig.tight_layout()
+    from knitfem.io.atomic import atomic_path
+    with atomic_path(out / "curl_panel.png") as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--runs", nargs="+", required=True, help="folders of knitfem curl runs")
+    parser.add_argument("--out", default="studies/results/fabric_curl")
+    args = parser.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    runs = finished_runs(args.runs)
+    if not runs:
+        parser.exit(3, "no relaxed swatch in the given folders\n")
+    panel(runs, out)
+    print(f"wrote {out / 'curl_panel.png'} ({len(runs)} swatches)")
+
+
+if __name__ == "__main__":
+    main()
