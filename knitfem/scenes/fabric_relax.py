@@ -13,8 +13,10 @@ straight, pre-stretched yarn (lam = 1) in quasi-static increments:
    round minimises; the next round (or increment) updates them, carrying each
    point's slip over (:mod:`knitfem.contact.friction`): contacts that formed
    during a round get their friction in the next;
-3. the increment grows after easy increments and is halved (from the last
-   equilibrium) when ``max_rounds`` rounds do not converge;
+3. the increments on the way are solved to ``path_tol`` (1e-3), the last one
+   to ``tol``; an increment grows after easy increments and is halved (from
+   the last equilibrium and its friction anchors) when ``max_rounds`` rounds
+   do not converge;
 4. at lam = 1 rounds go on until a converged round moves no node more than
    ``creep`` (default 1e-3 r: the lagged normal forces have settled), or
    ``2 max_rounds`` rounds, the last of which converged.
