@@ -19,7 +19,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-VIEWS = {"front": (0.0, 0.0, 1.0), "iso": (1.0, -1.0, 0.8)}
+VIEWS = ("front", "iso")          # of knitfem.scenes.curl.VIEWS
 
 
 def finished_runs(folders):
@@ -39,7 +39,7 @@ def finished_runs(folders):
 def render(summary, vtu, out):
     """front and iso PNGs of a run (made once, next to the panel)."""
     import meshio
-    from knitfem.viz.render import render_rods
+    from knitfem.scenes.curl import render_views
     name = vtu.stem
     # runs of one size from different folders must not share pictures
     tag = name if vtu.parent.resolve() == out.resolve() else f"{vtu.parent.name}_{name}"
@@ -52,12 +52,8 @@ def render(summary, vtu, out):
         for v in missing:
             shutil.copy(beside[v], paths[v])
         return paths
-    mesh = meshio.read(vtu)
-    radius = summary["scene"]["radius"]
-    for view in missing:
-        render_rods(paths[view], mesh, radius, scalars="curvature", view=VIEWS[view],
-                    title=f"{summary['nw']} x {summary['nc']}: {summary['curl']} curl ({view})",
-                    camera_up=(0, 1, 0) if view == "front" else (0, 0, 1))
+    render_views({v: paths[v] for v in missing}, meshio.read(vtu), summary["scene"]["radius"],
+                 f"{summary['nw']} x {summary['nc']}: {summary['curl']} curl")
     return paths
 
 

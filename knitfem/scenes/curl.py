@@ -179,17 +179,23 @@ def _write_outputs(out, model, eq, summary, frames, render):
         write_series(out / "path" / "path.pvd", [f for f, _ in frames], [t for _, t in frames])
     if render:
         from ..io import beam_mesh
-        from ..viz.render import render_rods
-        mesh = beam_mesh(model, eq.state)
-        radius = min(r.section.radius for r in model.rods)
-        for view, direction in VIEWS.items():
-            render_rods(out / f"{name}_{view}.png", mesh, radius, scalars="curvature",
-                        view=direction, title=f"{summary['nw']} x {summary['nc']}: "
-                        + (f"{summary['curl']} curl ({view})" if summary["curl"] else
-                           f"NOT RELAXED, lam = {summary['last_equilibrium']['lam']:.3g} "
-                           f"({view})"),
-                        camera_up=(0, 1, 0) if view == "front" else (0, 0, 1))
+        title = f"{summary['nw']} x {summary['nc']}: " + (
+            f"{summary['curl']} curl" if summary["curl"] else
+            f"NOT RELAXED, lam = {summary['last_equilibrium']['lam']:.3g}")
+        render_views({view: out / f"{name}_{view}.png" for view in VIEWS},
+                     beam_mesh(model, eq.state), min(r.section.radius for r in model.rods),
+                     title)
     (out / f"{name}.json").write_text(json.dumps(summary, indent=2))
+
+
+def render_views(paths, mesh, radius, title):
+    """Tube renders of a swatch's line mesh (meshio), coloured by curvature:
+    ``paths`` maps views of :data:`VIEWS` to PNG files; ``title`` gets the view."""
+    from ..viz.render import render_rods
+    for view, path in paths.items():
+        render_rods(path, mesh, radius, scalars="curvature", view=VIEWS[view],
+                    title=f"{title} ({view})",
+                    camera_up=(0, 1, 0) if view == "front" else (0, 0, 1))
 
 
 def scene_from_options(args):
