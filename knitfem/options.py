@@ -215,6 +215,11 @@ def _dest(flag):
     return flag.lstrip("-").replace("-", "_")
 
 
+def _applies(spec, args):
+    """Whether a number option applies to ``args`` (its ``when`` holds, if any)."""
+    return spec.when is None or getattr(args, spec.when[0], None) == spec.when[1]
+
+
 class OptionSet:
     """The validated options of one command (see the module docstring)."""
 
@@ -245,13 +250,12 @@ class OptionSet:
                 setattr(args, spec.dest, spec.default(args))
         args.given = given
         for spec in self.numbers:
-            if spec.when is not None and spec.dest in given:
+            if spec.dest in given and not _applies(spec, args):
                 dest, value, *why = spec.when
                 actual, flag = getattr(args, dest), "--" + dest.replace("_", "-")
-                if actual != value:
-                    raise OptionError(spec.flag, f"{spec.flag} does not apply to {flag} "
-                                      f"{actual} (only to {flag} {value})"
-                                      + (f": {why[0]}" if why else ""))
+                raise OptionError(spec.flag, f"{spec.flag} does not apply to {flag} "
+                                  f"{actual} (only to {flag} {value})"
+                                  + (f": {why[0]}" if why else ""))
             value = getattr(args, spec.dest)
             if value is not None:
                 spec.check(value)
@@ -267,8 +271,7 @@ class OptionSet:
     def inapplicable(self, args):
         """Dests of the options that do not apply to ``args`` (their ``when``
         fails): they keep a default for the estimates but describe no run."""
-        return {s.dest for s in self.numbers
-                if s.when is not None and getattr(args, s.when[0], None) != s.when[1]}
+        return {s.dest for s in self.numbers if not _applies(s, args)}
 
     @staticmethod
     def notice(args):
