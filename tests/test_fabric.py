@@ -180,6 +180,29 @@ def test_a_failed_increment_retries_from_the_last_equilibriums_friction_anchors(
     assert after[0] is before[0] and after[1] is before[1]
 
 
+def test_increments_of_a_tenth_end_on_exactly_one_final_increment(monkeypatch):
+    """Ten increments of 0.1 sum to 0.9999999999999999 in floating point: the
+    homotopy must still end on one increment at exactly lam = 1, solved to
+    ``tol`` (not a round-off increment to path_tol and then another)."""
+    model, _, _ = build(FabricScene(3, 3))
+    targets = []
+
+    def recording(model, state, lam, tol, *args, **kwargs):
+        targets.append((lam, tol))
+
+        class Result:
+            pass
+        result = Result()
+        result.state = state
+        return result, fabric_relax.Increment(lam, 1, 0.0, 0.0, np.inf, 0.0)
+    monkeypatch.setattr(fabric_relax, "_increment", recording)
+    fabric_relax.relax_fabric(model, Homotopy(model, 0.05), dlam=0.1, dlam_max=0.1,
+                              tol=1e-8, path_tol=1e-3)
+    assert len(targets) == 10
+    assert targets[-1] == (1.0, 1e-8)
+    assert all(t == 1e-3 for _, t in targets[:-1])
+
+
 def _contact_rounds(scene):
     """Two friction rounds at lam = 0.1 (40 + 20 minimisation steps): the
     yarns tighten onto their crossings, contacts form and friction anchors."""

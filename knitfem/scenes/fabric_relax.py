@@ -155,7 +155,9 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     # from those its failed rounds left behind
     saved = contact.friction_state() if contact is not None else None
     while lam < 1.0:
-        target = min(1.0, lam + dlam)
+        # snap: ten increments of 0.1 sum to 0.9999999999999999, which would
+        # leave a round-off increment solved to path_tol before the last one
+        target = 1.0 if lam + dlam > 1.0 - 1e-9 else lam + dlam
         last = target == 1.0
         homotopy.apply(target)
         result, inc = _increment(model, state, target, tol if last else path_tol, iterations,
