@@ -50,7 +50,9 @@ def test_scaling_all_stiffnesses_together_leaves_the_shape_unchanged():
 def relaxed_3x4(tmp_path_factory):
     """The smallest swatch the classification takes, relaxed by ``knitfem
     curl``'s own path (alpha = 0.05: at the default 0.2 the relaxation does not
-    yet get through, see README), with every increment's checkpoint kept."""
+    yet get through, see README) in increments of at most 0.5, with every
+    checkpoint kept: after each friction round of an increment under way and
+    after each increment."""
     from knitfem.scenes import curl as curl_module
     out = tmp_path_factory.mktemp("curl")
     kept, save = [], curl_module._save_checkpoint
@@ -60,13 +62,15 @@ def relaxed_3x4(tmp_path_factory):
         kept.append(path.read_bytes())
     curl_module._save_checkpoint = keep
     try:
-        summary = curl_module.curl(SCENE, out=out, render=False, progress=False)
+        summary = curl_module.curl(SCENE, out=out, render=False, progress=False,
+                                   relax_options=RELAX)
     finally:
         curl_module._save_checkpoint = save
     return summary, kept, out
 
 
 SCENE = FabricScene(3, 4, alpha=0.05)
+RELAX = {"dlam": 0.5, "dlam_max": 0.5}
 
 
 def test_small_swatch_relaxes_to_a_converged_stable_equilibrium(relaxed_3x4):
@@ -86,17 +90,31 @@ def test_small_swatch_relaxes_to_a_converged_stable_equilibrium(relaxed_3x4):
     assert json.loads((out / "curl_3x4.json").read_text())["residual"] == summary["residual"]
 
 
-def test_a_killed_and_resumed_run_ends_where_an_uninterrupted_one_does(relaxed_3x4, tmp_path):
-    """Resume from the checkpoint the run wrote after its last increment but
-    one (as a kill would leave it; the last increment, at lam = 1, is resumed
-    with its friction anchors and step): the same equilibrium (1e-6 of a
-    radius) and curl."""
+def _is_partial(blob):
+    import io
+    return "partial_x" in np.load(io.BytesIO(blob)).files
+
+
+@pytest.mark.parametrize("when", ["after an increment", "within an increment"])
+def test_a_killed_and_resumed_run_ends_where_an_uninterrupted_one_does(relaxed_3x4, tmp_path,
+                                                                       when):
+    """Resume from a checkpoint as a kill would leave it: the one written
+    after the last increment but one (the last increment is resumed with
+    its friction anchors and step), or the last one written within the last
+    increment (after its last friction round but one: the round's state and
+    anchors, the equilibrium's anchors to retry from): the same equilibrium
+    (1e-6 of a radius), curl and iteration count."""
     from knitfem.scenes.curl import curl
     summary, kept, out = relaxed_3x4
-    assert len(kept) == summary["increments"] >= 3
-    (tmp_path / "checkpoint.npz").write_bytes(kept[-2])
-    resumed = curl(SCENE, out=tmp_path, render=False, progress=False, resume=True)
+    whole = [blob for blob in kept if not _is_partial(blob)]
+    within = [blob for blob in kept if _is_partial(blob)]
+    assert len(whole) == summary["increments"] >= 2 and len(within) >= 2
+    blob = whole[-2] if when == "after an increment" else within[-1]
+    (tmp_path / "checkpoint.npz").write_bytes(blob)
+    resumed = curl(SCENE, out=tmp_path, render=False, progress=False, resume=True,
+                   relax_options=RELAX)
     assert resumed["converged"] and resumed["increments"] == summary["increments"]
+    assert resumed["iterations"] == summary["iterations"]
     a = _points(out / "curl_3x4.vtu")
     b = _points(tmp_path / "curl_3x4.vtu")
     assert np.abs(a - b).max() <= 1e-6 * SCENE.radius
@@ -203,6 +221,32 @@ def test_increments_of_a_tenth_end_on_exactly_one_final_increment(monkeypatch):
     assert all(t == 1e-3 for _, t in targets[:-1])
 
 
+def test_a_failed_attempts_work_is_counted_but_not_its_path(monkeypatch):
+    """An increment that failed and was retried smaller cost iterations and
+    time: the total counts them (a run's cost is what it ran), the path and
+    its penetration are those of the accepted increments."""
+    model, _, _ = build(FabricScene(3, 3))
+    calls = []
+
+    def first_fails(model, state, lam, *args, **kwargs):
+        calls.append(lam)
+
+        class Result:
+            pass
+        result = Result()
+        result.state = state
+        if len(calls) == 1:
+            return None, "too far", fabric_relax.Increment(lam, 7, np.nan, np.nan, -1.0, 0.0,
+                                                           False)
+        return result, fabric_relax.Increment(lam, 3, 0.0, 0.0, np.inf, 0.0)
+    monkeypatch.setattr(fabric_relax, "_increment", first_fails)
+    eq = fabric_relax.relax_fabric(model, Homotopy(model, 0.05), dlam=1.0, dlam_max=0.5)
+    assert calls == [1.0, 0.5, 1.0]
+    assert eq.iterations == 7 + 3 + 3
+    assert [inc.accepted for inc in eq.increments] == [False, True, True]
+    assert eq.max_penetration == 0.0
+
+
 def _contact_rounds(scene):
     """Two friction rounds at lam = 0.1 (40 + 20 minimisation steps): the
     yarns tighten onto their crossings, contacts form and friction anchors."""
@@ -246,7 +290,7 @@ def test_a_checkpoint_from_before_a_scene_field_existed_resumes_with_its_default
     del old["mirror"]
     data["scene"] = json.dumps(old, sort_keys=True)
     np.savez(path, **data)
-    state, lam, dlam, _ = curl_module._load_checkpoint(path, scene, model)
-    assert (lam, dlam) == (0.3, 0.1)
+    state, lam, dlam, _, partial = curl_module._load_checkpoint(path, scene, model)
+    assert (lam, dlam, partial) == (0.3, 0.1, None)
     with pytest.raises(ValueError, match="--resume: .* other parameters"):
         curl_module._load_checkpoint(path, FabricScene(3, 4, mirror=True), model)

@@ -158,3 +158,34 @@ def test_slip_carried_over_keeps_the_friction_force():
     model.contact_model.anchor_friction(first.state.x, first.state.q, carry=False)
     lost = problem.residual(problem.evaluate(first.state, False)[1])
     assert lost > 1e3 * max(kept, 1e-12)
+
+
+@pytest.mark.parametrize("slide, now, expected", [
+    (2.0, 1.0, 0.0),          # sliding, normal forces unchanged: on the Coulomb limit
+    (2.0, 0.5, 0.5),          # sliding, normal forces halved: half the force is in excess
+    (0.5, 0.5, 1.0 / 3.0),    # sticking at f0'(eps/2) = 3/4: (3/4 - 1/2) / (3/4)
+    (0.5, 1.0, 0.0),          # sticking inside the cone
+])
+def test_coulomb_excess_of_lagged_friction(slide, now, expected):
+    """The friction force of the lagged anchors against mu times the normal
+    forces now: the top yarn slid rigidly by ``slide`` stick radii along the
+    base (every point's slip the same), the current normal forces ``now``
+    times the anchored ones; and a point that left contact has limit 0."""
+    from knitfem.contact.friction import coulomb_excess
+    slip = 1e-3
+    model = resting_yarn(slip=slip)
+    state = settle(model)
+    contact = model.contact_model
+    anchors = contact.anchors
+    assert len(anchors.key) > 0
+    x = state.x.copy()
+    x[21:, 0] += slide * slip                     # the top yarn's 17 nodes
+    a, b = contact.nodes[:, 0], contact.nodes[:, 1]
+    current = anchors._replace(coefficient=now * anchors.coefficient)
+    assert coulomb_excess(anchors, current, x[a], x[b], slip) == pytest.approx(expected,
+                                                                              abs=1e-9)
+    half = len(anchors.key) // 2
+    gone = current._replace(key=current.key[:half], coefficient=current.coefficient[:half])
+    lost = float(anchors.coefficient[half:].sum() / anchors.coefficient.sum())
+    assert coulomb_excess(anchors, gone, x[a], x[b], slip) == pytest.approx(
+        expected * (1.0 - lost) + lost, abs=1e-9)

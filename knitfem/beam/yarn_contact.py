@@ -18,6 +18,7 @@ point along the master over dt).
 import numpy as np
 
 from ..contact import PenaltyLaw, SegmentContact, carry_slip, friction_forces
+from ..contact.friction import coulomb_excess
 from .assembly import DOFS_PER_NODE, block_matrix, block_vector
 from .rotation import quat_conjugate, quat_multiply, rotation_vector
 
@@ -95,6 +96,16 @@ class BeamContact:
         if carry and self.anchors is not None:
             new = carry_slip(new, self.anchors, x[a], x[b], self.slip, self._turns(q)[1])
         self.anchors, self.anchor_q = new, np.array(q, dtype=float)
+
+    def coulomb_excess(self, x, q):
+        """Fraction of the friction force above mu times the normal forces at
+        x, q (:func:`knitfem.contact.friction.coulomb_excess`): what the
+        lagged normal forces leave unsettled in an equilibrium."""
+        if self.anchors is None or self.friction <= 0.0:
+            return 0.0
+        a, b = self.nodes[:, 0], self.nodes[:, 1]
+        current = self.segments.friction_anchors(x[a], x[b], self.friction, self.length)
+        return coulomb_excess(self.anchors, current, x[a], x[b], self.slip, self._turns(q)[1])
 
     def blocks(self, x, q=None, tangent=True):
         """Energy and per-block groups [(dofs (m, w), gradients (m, w), Hessians

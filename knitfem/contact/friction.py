@@ -138,6 +138,27 @@ def carry_slip(new, old, x0, x1, eps, theta=None):
     return new._replace(rel0=new.rel0 - carried)
 
 
+def coulomb_excess(anchors, current, x0, x1, eps, theta=None):
+    """How far the lagged friction is from Coulomb's law at x0, x1: the
+    fraction of the total friction force of ``anchors`` (mu f_n W f0'(|u_T|),
+    with the normal forces lagged at the anchor) that exceeds the Coulomb
+    limit mu f_n W at the *current* normal forces (``current``: anchors made
+    at x0, x1; a point no longer in contact has limit 0).  0 when the lagged
+    normal forces have settled; the lagged rounds drive it down."""
+    if anchors is None or len(anchors.key) == 0:
+        return 0.0
+    y = np.linalg.norm(slips(anchors, x0, x1, theta), axis=1)
+    force = anchors.coefficient * np.where(y < eps, 2.0 * y / eps - y * y / eps**2, 1.0)
+    limit = np.zeros_like(force)
+    if len(current.key):
+        order = np.argsort(current.key)
+        pos = np.minimum(np.searchsorted(current.key[order], anchors.key), len(order) - 1)
+        found = current.key[order][pos] == anchors.key
+        limit = np.where(found, current.coefficient[order][pos], 0.0)
+    total = float(force.sum())
+    return float(np.maximum(force - limit, 0.0).sum() / total) if total > 0 else 0.0
+
+
 def _f0(y, eps):
     return np.where(y < eps, y * y / eps - y**3 / (3.0 * eps * eps) + eps / 3.0, y)
 

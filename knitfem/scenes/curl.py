@@ -27,26 +27,36 @@ from .fabric_relax import FabricRelaxationError, relax_fabric
 VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
 
 
-def _save_checkpoint(path, scene, state, lam, dlam, increments, contact):
-    """Atomically write the relaxation's state after an increment."""
+def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial=None):
+    """Atomically write the relaxation's state after an increment, or after a
+    friction round of the increment under way (``partial``)."""
     data = {"x": state.x, "q": state.q, "lam": lam, "dlam": dlam,
             "scene": json.dumps(scene.as_dict(), sort_keys=True),
             "increments": np.array([[i.lam, i.iterations, i.residual, i.energy, i.min_gap,
-                                     i.seconds] for i in increments])}
-    if contact is not None and contact.anchors is not None:
-        for name, value in contact.anchors._asdict().items():
-            data["anchor_" + name] = value
-        data["anchor_q"] = contact.anchor_q
+                                     i.seconds, i.accepted] for i in increments])}
+    anchors = [("", partial.equilibrium if partial is not None else
+                (contact.friction_state() if contact is not None else None))]
+    if partial is not None:
+        data.update(partial_x=partial.state.x, partial_q=partial.state.q,
+                    partial_numbers=np.array([partial.target, partial.rounds, partial.iterations,
+                                              partial.min_gap, partial.seconds]))
+        anchors.append(("partial_", partial.friction))
+    for prefix, friction in anchors:
+        if friction is not None and friction[0] is not None:
+            for name, value in friction[0]._asdict().items():
+                data[prefix + "anchor_" + name] = value
+            data[prefix + "anchor_q"] = friction[1]
     tmp = path.with_suffix(".tmp.npz")
     np.savez(tmp, **data)
     os.replace(tmp, path)
 
 
 def _load_checkpoint(path, scene, model):
-    """(state, lam, dlam, increments) from a checkpoint of the same scene, or None."""
+    """(state, lam, dlam, increments, partial) from a checkpoint of the same
+    scene, or None; the contact model gets the equilibrium's friction anchors."""
     from ..beam.model import BeamState
     from ..contact.friction import Anchors
-    from .fabric_relax import Increment
+    from .fabric_relax import Increment, Partial
     if not path.exists():
         return None
     data = np.load(path)
@@ -56,13 +66,26 @@ def _load_checkpoint(path, scene, model):
     if json.dumps(saved, sort_keys=True) != json.dumps(scene.as_dict(), sort_keys=True):
         raise ValueError(f"--resume: {path} holds a run with other parameters; remove it or "
                          "give the same options")
+
+    def friction(prefix):
+        if prefix + "anchor_key" not in data.files:
+            return None, None
+        return (Anchors(*(data[prefix + "anchor_" + f] for f in Anchors._fields)),
+                data[prefix + "anchor_q"])
     contact = model.contact_model
-    if "anchor_key" in data.files:
-        contact.anchors = Anchors(*(data["anchor_" + f] for f in Anchors._fields))
-        contact.anchor_q = data["anchor_q"]
-    increments = [Increment(float(r[0]), int(r[1]), *map(float, r[2:]))
-                  for r in data["increments"]]
-    return BeamState(data["x"], data["q"]), float(data["lam"]), float(data["dlam"]), increments
+    if contact is not None and "anchor_key" in data.files:
+        contact.restore_friction(friction(""))
+    # (a checkpoint from before failed attempts were kept has six columns)
+    increments = [Increment(float(r[0]), int(r[1]), *map(float, r[2:6]),
+                            bool(r[6]) if len(r) > 6 else True) for r in data["increments"]]
+    partial = None
+    if "partial_x" in data.files:
+        target, rounds, iterations, gap, seconds = data["partial_numbers"]
+        partial = Partial(float(target), BeamState(data["partial_x"], data["partial_q"]),
+                          int(rounds), int(iterations), float(gap), float(seconds),
+                          friction("partial_"))
+    return (BeamState(data["x"], data["q"]), float(data["lam"]), float(data["dlam"]),
+            increments, partial)
 
 
 def lowest_scaled_eigenvalue(H):
@@ -111,26 +134,27 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
 
     frames = []
 
-    def on_increment(state, lam, dlam, increments):
+    def on_increment(state, lam, dlam, increments, partial=None):
         if out is None:
             return
-        from ..io import write_beam_state
-        frames.append((write_beam_state(out / "path" / f"step_{len(increments):03d}.vtu",
-                                        model, state), lam))
+        if partial is None:
+            from ..io import write_beam_state
+            step = sum(inc.accepted for inc in increments)
+            frames.append((write_beam_state(out / "path" / f"step_{step:03d}.vtu",
+                                            model, state), lam))
         _save_checkpoint(checkpoint_path, scene, state, lam, dlam, increments,
-                         model.contact_model)
+                         model.contact_model, partial)
 
     kwargs = {}
     if start is not None:
-        state, lam, dlam, done = start
-        kwargs = dict(state=state, lam=lam, dlam=dlam)
+        state, lam, dlam, done, partial = start
+        kwargs = dict(state=state, lam=lam, dlam=dlam, partial=partial, increments=done)
         homotopy.apply(lam)
-    else:
-        done = []
     failure = None
     try:
-        eq = relax_fabric(model, homotopy, progress=on_step, checkpoint=on_increment, **kwargs,
-                          **(relax_options or {}))
+        # a resumed run goes on with the checkpoint's step, not the options' first one
+        eq = relax_fabric(model, homotopy, progress=on_step, checkpoint=on_increment,
+                          **{**(relax_options or {}), **kwargs})
     except FabricRelaxationError as err:
         failure = err
     finally:
@@ -139,7 +163,6 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     if failure is not None:
         from .fabric_relax import equilibrium
         eq = equilibrium(model, failure.state, False, failure.increments)
-    eq.increments = done + eq.increments
     shape = swatch_curl(eq.state.x, swatch)
     from ..beam.energy import EnergyProblem
     H = EnergyProblem(model, 1.0).evaluate(eq.state, True)[2]
@@ -159,9 +182,13 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         "negative_eigenvalues": eq.negative_eigenvalues,
         "lowest_eigenvalue": lowest_scaled_eigenvalue(H),
         "max_penetration_over_d": eq.max_penetration / (2.0 * scene.radius),
-        "reaction_over_force_scale": eq.reaction,
+        "reaction_over_force_scale": eq.reaction, "coulomb_excess": eq.coulomb_excess,
         "dofs": info["free_dofs"], "iterations": eq.iterations,
-        "increments": len(eq.increments), "elapsed_s": time.perf_counter() - t0,
+        "increments": sum(inc.accepted for inc in eq.increments),
+        "failed_increments": sum(not inc.accepted for inc in eq.increments),
+        "elapsed_s": time.perf_counter() - t0,
+        # summed over the increments: a resumed run's whole relaxation time
+        "relax_s": float(sum(inc.seconds for inc in eq.increments)),
         "scene": scene.as_dict(), "start_gap_over_d": info["start_gap_over_d"],
         "geometry_inflation": info["inflation"],
         "error": None if failure is None else str(failure),

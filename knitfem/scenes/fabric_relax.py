@@ -59,6 +59,7 @@ class Increment:
     energy: float
     min_gap: float          # smallest contact gap seen at the increment's states
     seconds: float
+    accepted: bool = True   # False: an attempt that failed and was retried smaller
 
 
 @dataclass
@@ -69,9 +70,10 @@ class FabricEquilibrium:
     stable: bool
     negative_eigenvalues: int
     reaction: float          # |reaction| at the held node over the force scale
-    iterations: int
-    increments: list = field(default_factory=list)
+    iterations: int          # all minimisation steps, failed attempts included
+    increments: list = field(default_factory=list)     # accepted and failed (``accepted``)
     max_penetration: float = 0.0    # largest penetration along the path (length)
+    coulomb_excess: float = 0.0     # friction force above mu f_n now, over the total
 
 
 def _gap_watch(model, sink):
@@ -101,35 +103,67 @@ def _round(model, state, lam, tol, iterations, progress=None):
     return result, gap[0]
 
 
+@dataclass
+class Partial:
+    """An increment under way, after ``rounds`` friction rounds: its target
+    lam, the state and friction anchors (``friction``, as
+    :meth:`BeamContact.friction_state` gives them) after the last round, and
+    the totals so far (and ``equilibrium``, the anchors of the equilibrium it
+    started from, to retry from).  Written after every round, so a kill loses at most
+    one round of an increment (one increment may be the whole relaxation)."""
+    target: float
+    state: object
+    rounds: int
+    iterations: int
+    min_gap: float
+    seconds: float
+    friction: tuple = None       # after the last round
+    equilibrium: tuple = None    # of the equilibrium at the increment's start
+
+
 def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=None,
-               min_rounds=1):
+               min_rounds=1, start=None, on_round=None):
     """Friction rounds at lam until one converges (after at least
     ``min_rounds``) and moved no node more than ``creep`` (the lagged normal
     forces have settled), or ``max_rounds`` rounds of which the last
-    converged; returns (result, Increment) or (None, reason)."""
+    converged; returns (result, Increment) or (None, reason, Increment with
+    accepted False: the work the failed attempt cost).  ``start``: a
+    :class:`Partial` to continue; ``on_round(Partial)`` after every round
+    that another follows."""
     t = time.perf_counter()
-    total, gap, result = 0, np.inf, None
-    for k in range(max_rounds):
+    total, gap, result, first, before = 0, np.inf, None, 0, 0.0
+    if start is not None:
+        state, total, gap, first, before = (start.state, start.iterations, start.min_gap,
+                                            start.rounds, start.seconds)
+    contact = model.contact_model
+    for k in range(first, max_rounds):
         try:
             result, g = _round(model, state, lam, tol, iterations, progress)
         except RelaxationError as err:
-            return None, f"round {k + 1} at lam = {lam:.4g}: {err}"
+            total += len(err.history)
+            return None, f"round {k + 1} at lam = {lam:.4g}: {err}", Increment(
+                lam, total, np.nan, np.nan, gap, before + time.perf_counter() - t, False)
         total += result.iterations
         gap = min(gap, g)
         moved = float(np.max(np.abs(result.state.x - state.x)))
         state = result.state
         if result.converged and (k >= min_rounds - 1) and moved <= creep:
             break
+        if on_round is not None and k + 1 < max_rounds:
+            on_round(Partial(lam, state, k + 1, total, gap, before + time.perf_counter() - t,
+                             contact.friction_state() if contact is not None else None))
     if result is None or not result.converged:
+        residual = f"{result.residual:.2e}" if result is not None else "not computed"
         return None, (f"no converged friction round at lam = {lam:.4g} in {max_rounds} rounds "
-                      f"(residual {result.residual:.2e})")
+                      f"(residual {residual})"), Increment(
+            lam, total, np.nan, np.nan, gap, before + time.perf_counter() - t, False)
     return result, Increment(lam, total, result.residual, result.energy, gap,
-                             time.perf_counter() - t)
+                             before + time.perf_counter() - t)
 
 
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=0.1,
                  dlam_max=0.25, dlam_min=1e-3, iterations=200, max_rounds=4, creep=None,
-                 progress=None, checkpoint=None):
+                 progress=None, checkpoint=None, partial=None, increments=()):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
     to lam = 1 (see the module docstring).
 
@@ -140,14 +174,19 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     1e-3 both converge and a 5 x 5 takes 2 558 instead of 3 269 iterations,
     its rolls within 6 deg of the 1e-5 run's.  iterations : per friction round.
     progress(lam, iteration, E, residual) after every minimisation step;
-    checkpoint(state, lam, dlam, increments) after every increment (to
-    resume, pass its state and lam back).  Returns :class:`FabricEquilibrium`.
+    checkpoint(state, lam, dlam, increments, partial) after every increment
+    (partial None) and after every friction round of an increment under way
+    (partial a :class:`Partial`; the model's friction anchors are then the
+    round's, those of the equilibrium at lam are ``partial.equilibrium``).
+    To resume, pass state, lam, dlam, the partial and the increments so far
+    back, with the equilibrium's anchors in the contact model.  Returns
+    :class:`FabricEquilibrium`.
     """
     state = model.initial_state() if state is None else state
     if creep is None:
         radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
         creep = 1e-3 * min(radii) if radii else 1e-6 * model.length_scale()
-    increments = []
+    increments = list(increments)
     lam = float(lam)
     contact = model.contact_model
     # the slips carried from round to round are part of the equilibrium: a
@@ -158,20 +197,33 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
         # snap: ten increments of 0.1 sum to 0.9999999999999999, which would
         # leave a round-off increment solved to path_tol before the last one
         target = 1.0 if lam + dlam > 1.0 - 1e-9 else lam + dlam
+        if partial is not None:
+            target = partial.target
+            if contact is not None:
+                contact.restore_friction(partial.friction)
         last = target == 1.0
         homotopy.apply(target)
-        result, inc = _increment(model, state, target, tol if last else path_tol, iterations,
-                                 2 * max_rounds if last else max_rounds,
-                                 creep if last else np.inf, progress, 2 if last else 1)
+
+        def on_round(p):
+            if checkpoint is not None:
+                p.equilibrium = saved
+                checkpoint(state, lam, dlam, increments, p)
+        result, inc, *attempt = _increment(model, state, target, tol if last else path_tol,
+                                           iterations, 2 * max_rounds if last else max_rounds,
+                                           creep if last else np.inf, progress,
+                                           2 if last else 1, partial, on_round)
+        partial = None
         if result is None:
-            dlam *= 0.5
+            # the failed attempt's work counts (iterations, time), not its path
+            increments.extend(attempt)
+            dlam = 0.5 * (target - lam)
             homotopy.apply(lam)
             if contact is not None:
                 contact.restore_friction(saved)
             if dlam < dlam_min:
                 raise FabricRelaxationError(
-                    f"relaxation failed near homotopy lam = {lam + 2 * dlam:.4g} (increment "
-                    f"{2 * dlam:.2g} from the equilibrium at {lam:.4g}): {inc}", state, lam,
+                    f"relaxation failed near homotopy lam = {target:.4g} (increment "
+                    f"{target - lam:.2g} from the equilibrium at {lam:.4g}): {inc}", state, lam,
                     increments)
             continue
         increments.append(inc)
@@ -181,7 +233,7 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
         if inc.iterations <= iterations:
             dlam = min(1.5 * dlam, dlam_max)
         if checkpoint is not None:
-            checkpoint(state, lam, dlam, increments)
+            checkpoint(state, lam, dlam, increments, None)
     return equilibrium(model, state, True, increments)
 
 
@@ -194,7 +246,9 @@ def equilibrium(model, state, converged, increments):
     negative = inertia(H)[0]
     _, f, _ = model.internal_forces(state, tangent=False)
     reaction = float(np.linalg.norm((f * model.residual_weights())[model.fixed]) / problem.ref)
-    gaps = [inc.min_gap for inc in increments if np.isfinite(inc.min_gap)]
+    gaps = [inc.min_gap for inc in increments if inc.accepted and np.isfinite(inc.min_gap)]
+    contact = model.contact_model
+    excess = contact.coulomb_excess(state.x, state.q) if contact is not None else 0.0
     return FabricEquilibrium(state, bool(converged), residual, negative == 0, int(negative),
                              reaction, int(sum(inc.iterations for inc in increments)),
-                             increments, max(0.0, -min(gaps, default=0.0)))
+                             increments, max(0.0, -min(gaps, default=0.0)), excess)
