@@ -44,6 +44,7 @@ def test_section_constructors_name_the_bad_parameter(call, match):
     (lambda: Rod.from_centerline([[0, 0, 0], [1, 0, 0]], SECTION, natural="bent"),
      r"natural must be"),
     (lambda: Rod.arc(-1.0, 1.0, 4, SECTION), r"radius must be finite and in \(0, inf\)"),
+    (lambda: Rod.arc(1e200, 1.0, 4, SECTION), r"radius must be in \(0, 1e\+100\], got 1e\+200"),
     (lambda: Rod.straight((0, 0, 0), (1, 0, 0), 1.0, 4, "steel"),
      r"section must be a knitfem Section"),
 ])

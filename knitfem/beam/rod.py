@@ -42,6 +42,7 @@ def _vector3(name, value):
 
 
 MAX_ELEMENTS = 10**7          # ~1 GB of nodes, frames and strains per rod
+MAX_LENGTH = 1e100            # any unit: beyond it squared lengths overflow in double
 
 
 def _elements(n):
@@ -181,6 +182,9 @@ class Rod:
         bends toward ``toward``; d3 is the arc's plane normal."""
         R = check_positive("radius", radius)
         phi_end = check_positive("angle", angle)
+        # squared chord lengths must stay finite (norms of ~1e154 overflow)
+        if R > MAX_LENGTH:
+            raise ValueError(f"radius must be in (0, {MAX_LENGTH:g}], got {R:g}")
         n = _elements(elements)
         # each element turns by less than pi (the relative rotation's logarithm
         # is unique) and by enough to leave distinct nodes
