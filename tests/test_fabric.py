@@ -85,6 +85,7 @@ def test_small_swatch_relaxes_to_a_converged_stable_equilibrium(relaxed_3x4):
     assert summary["error"] is None and summary["converged"] and summary["residual"] <= 1e-8
     assert summary["stable"] and summary["negative_eigenvalues"] == 0
     assert summary["max_penetration_over_d"] <= 0.05
+    assert 0.0 <= summary["penetration_over_d"] <= summary["max_penetration_over_d"]
     assert summary["curl"] in ("flat", "side", "double", "top_bottom")
     assert summary["reaction_over_force_scale"] <= 0.03
     assert json.loads((out / "curl_3x4.json").read_text())["residual"] == summary["residual"]

@@ -182,6 +182,9 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         "negative_eigenvalues": eq.negative_eigenvalues,
         "lowest_eigenvalue": lowest_scaled_eigenvalue(H),
         "max_penetration_over_d": eq.max_penetration / (2.0 * scene.radius),
+        # the answer's own (the key above is the deepest along the path)
+        "penetration_over_d": max(0.0, -model.contact_report(eq.state).min_gap)
+        / (2.0 * scene.radius),
         "reaction_over_force_scale": eq.reaction, "coulomb_excess": eq.coulomb_excess,
         "dofs": info["free_dofs"], "iterations": eq.iterations,
         "increments": sum(inc.accepted for inc in eq.increments),
