@@ -119,6 +119,14 @@ def slips(anchors, x0, x1, theta=None):
     return u
 
 
+def _match(keys, wanted):
+    """For each of ``wanted``, its index in ``keys`` (non-empty) and whether it
+    is there (the slave Gauss points two anchor sets share)."""
+    order = np.argsort(keys)
+    pos = np.minimum(np.searchsorted(keys[order], wanted), len(order) - 1)
+    return order[pos], keys[order][pos] == wanted
+
+
 def carry_slip(new, old, x0, x1, eps, theta=None):
     """``new`` anchors (made at x0, x1) holding the slips of the ``old`` ones
     at x0, x1 for the same slave Gauss points, each clipped to length eps
@@ -129,11 +137,8 @@ def carry_slip(new, old, x0, x1, eps, theta=None):
     u = slips(old, x0, x1, theta)
     size = np.linalg.norm(u, axis=1)
     u *= (np.minimum(size, eps) / np.maximum(size, 1e-300))[:, None]
-    order = np.argsort(old.key)
-    pos = np.searchsorted(old.key[order], new.key)
-    pos = np.minimum(pos, len(order) - 1)
-    found = old.key[order][pos] == new.key
-    carried = np.where(found[:, None], u[order][pos], 0.0)
+    index, found = _match(old.key, new.key)
+    carried = np.where(found[:, None], u[index], 0.0)
     carried -= new.normal * np.sum(new.normal * carried, axis=1, keepdims=True)
     return new._replace(rel0=new.rel0 - carried)
 
@@ -151,10 +156,8 @@ def coulomb_excess(anchors, current, x0, x1, eps, theta=None):
     force = anchors.coefficient * np.where(y < eps, 2.0 * y / eps - y * y / eps**2, 1.0)
     limit = np.zeros_like(force)
     if len(current.key):
-        order = np.argsort(current.key)
-        pos = np.minimum(np.searchsorted(current.key[order], anchors.key), len(order) - 1)
-        found = current.key[order][pos] == anchors.key
-        limit = np.where(found, current.coefficient[order][pos], 0.0)
+        index, found = _match(current.key, anchors.key)
+        limit = np.where(found, current.coefficient[index], 0.0)
     total = float(force.sum())
     return float(np.maximum(force - limit, 0.0).sum() / total) if total > 0 else 0.0
 

@@ -183,8 +183,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         "lowest_eigenvalue": lowest_scaled_eigenvalue(H),
         "max_penetration_over_d": eq.max_penetration / (2.0 * scene.radius),
         # the answer's own (the key above is the deepest along the path)
-        "penetration_over_d": max(0.0, -model.contact_report(eq.state).min_gap)
-        / (2.0 * scene.radius),
+        "penetration_over_d": eq.penetration / (2.0 * scene.radius),
         "reaction_over_force_scale": eq.reaction, "coulomb_excess": eq.coulomb_excess,
         "dofs": info["free_dofs"], "iterations": eq.iterations,
         "increments": sum(inc.accepted for inc in eq.increments),

@@ -74,6 +74,7 @@ class FabricEquilibrium:
     increments: list = field(default_factory=list)     # accepted and failed (``accepted``)
     max_penetration: float = 0.0    # largest penetration along the path (length)
     coulomb_excess: float = 0.0     # friction force above mu f_n now, over the total
+    penetration: float = 0.0        # penetration at the answer itself (length)
 
 
 def _gap_watch(model, sink):
@@ -136,13 +137,16 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         state, total, gap, first, before = (start.state, start.iterations, start.min_gap,
                                             start.rounds, start.seconds)
     contact = model.contact_model
+
+    def failed(reason):
+        return None, reason, Increment(lam, total, np.nan, np.nan, gap,
+                                       before + time.perf_counter() - t, False)
     for k in range(first, max_rounds):
         try:
             result, g = _round(model, state, lam, tol, iterations, progress)
         except RelaxationError as err:
             total += len(err.history)
-            return None, f"round {k + 1} at lam = {lam:.4g}: {err}", Increment(
-                lam, total, np.nan, np.nan, gap, before + time.perf_counter() - t, False)
+            return failed(f"round {k + 1} at lam = {lam:.4g}: {err}")
         total += result.iterations
         gap = min(gap, g)
         moved = float(np.max(np.abs(result.state.x - state.x)))
@@ -154,9 +158,8 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
                              contact.friction_state() if contact is not None else None))
     if result is None or not result.converged:
         residual = f"{result.residual:.2e}" if result is not None else "not computed"
-        return None, (f"no converged friction round at lam = {lam:.4g} in {max_rounds} rounds "
-                      f"(residual {residual})"), Increment(
-            lam, total, np.nan, np.nan, gap, before + time.perf_counter() - t, False)
+        return failed(f"no converged friction round at lam = {lam:.4g} in {max_rounds} rounds "
+                      f"(residual {residual})")
     return result, Increment(lam, total, result.residual, result.energy, gap,
                              before + time.perf_counter() - t)
 
@@ -242,13 +245,16 @@ def equilibrium(model, state, converged, increments):
     anchors of the last increment in place)."""
     problem = EnergyProblem(model, 1.0)
     _, g, H, _ = problem.evaluate(state, True)
+    contact = model.contact_model
+    report = contact.report if contact is not None else None    # of that evaluation
+    penetration = max(0.0, -report.min_gap) if report is not None else 0.0
     residual = problem.residual(g)
     negative = inertia(H)[0]
     _, f, _ = model.internal_forces(state, tangent=False)
     reaction = float(np.linalg.norm((f * model.residual_weights())[model.fixed]) / problem.ref)
     gaps = [inc.min_gap for inc in increments if inc.accepted and np.isfinite(inc.min_gap)]
-    contact = model.contact_model
     excess = contact.coulomb_excess(state.x, state.q) if contact is not None else 0.0
     return FabricEquilibrium(state, bool(converged), residual, negative == 0, int(negative),
                              reaction, int(sum(inc.iterations for inc in increments)),
-                             increments, max(0.0, -min(gaps, default=0.0)), excess)
+                             increments, max(0.0, -min(gaps, default=0.0)), excess,
+                             penetration)
