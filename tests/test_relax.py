@@ -74,6 +74,59 @@ def test_minimisation_reports_a_gradient_that_is_not_the_energys():
     assert np.allclose(err.value.state, np.ones(3))
 
 
+class _Wall:
+    """E = (x - target)^2 in 1D, a Hessian model ten times too soft (so the
+    Newton step overshoots 10x and the line search cuts it), and a "contact"
+    that x > 1 penetrates by x - 1 (depth_limit 0.5)."""
+    depth_limit = 0.5
+
+    def __init__(self, target):
+        self.target, self.x = target, None
+
+    def evaluate(self, x, hessian=True):
+        from scipy import sparse
+        self.x = x
+        E, g = float((x[0] - self.target) ** 2), 2.0 * (x - self.target)
+        H = sparse.csr_matrix([[0.2]])
+        return (E, g, H, lambda: H) if hessian else (E, g, None, None)
+
+    def depth(self):
+        return max(0.0, float(self.x[0]) - 1.0)
+
+    def residual(self, g):
+        return float(np.linalg.norm(g))
+
+    def retract(self, x, dx):
+        return x + dx
+
+
+def test_no_accepted_state_passes_the_depth_limit():
+    """From x = 0 toward the minimum at 1.3 (depth 0.3, allowed) the first
+    cut step that lowers the energy is x ~ 1.62 (depth 0.62 > 0.5: Armijo
+    alone accepts it); the depth guard cuts it once more, and the minimiser
+    still converges to the allowed minimum."""
+    seen = []
+    problem = _Wall(1.3)
+    result = minimize(problem, np.zeros(1), tol=1e-6, max_iter=500,
+                      progress=lambda it, E, res: seen.append(float(problem.x[0])))
+    assert result.converged and abs(result.state[0] - 1.3) < 1e-6
+    assert max(seen) <= 1.5 + 1e-12
+    unguarded = _Wall(1.3)
+    unguarded.depth = lambda: 0.0
+    first = []
+    minimize(unguarded, np.zeros(1), tol=1e-10, max_iter=3, raise_on_failure=False,
+             progress=lambda it, E, res: first.append(float(unguarded.x[0])))
+    assert first[0] > 1.6                          # what the guard prevents
+
+
+def test_a_minimum_beyond_the_depth_limit_is_an_error_that_says_so():
+    """The minimum at x = 3 lies 2 deep: the minimiser stops at the limit and
+    says that the depth guard, not the energy, stopped it."""
+    with pytest.raises(RelaxationError, match="deeper than 0.5 into each other") as err:
+        minimize(_Wall(3.0), np.zeros(1), tol=1e-10, max_iter=500)
+    assert err.value.state[0] <= 1.5 + 1e-12
+
+
 def test_tie_carries_the_load_as_springs_in_series():
     """Rod A (clamped at x = 0) and rod B (clamped at x = 2.1), A's end tied to
     B's start 0.1 away, a force P along +x at A's end: A's tip moves

@@ -11,8 +11,11 @@ for large rotations and are refused.
 ``step_limit`` caps every step so that no node moves more than ``step`` (a
 length, default half the smallest yarn radius) or turns more than ``turn``
 radians: two yarns then approach by at most one radius per step, less than
-the 2r + gap they would have to cross to tunnel through each other, and the
-energy line search rejects steps that push them deep into each other.
+the 2r + gap they would have to cross to tunnel through each other; the
+line search rejects trial states that push yarns more than ``depth`` (4 % of
+the smallest diameter) into each other (the depth guard of
+:func:`knitfem.solve.minimize.minimize`), so no state on a relaxation's path
+penetrates deeper (unless its start did).
 """
 import numpy as np
 
@@ -24,7 +27,7 @@ from .element import element_forces
 class EnergyProblem:
     """Total potential of ``model`` at load factor ``lam`` on its free dofs."""
 
-    def __init__(self, model, lam=1.0, *, step=None, turn=0.5):
+    def __init__(self, model, lam=1.0, *, step=None, turn=0.5, depth=0.04):
         model.check()
         f_ext = model.external_forces().reshape(-1, DOFS_PER_NODE)
         if np.any(f_ext[:, 3:] != 0):
@@ -40,6 +43,9 @@ class EnergyProblem:
         self.step = float(step) if step is not None else \
             0.5 * (min(radii) if radii else 0.05 * model.length_scale())
         self.turn = float(turn)
+        # a fraction of the smallest yarn diameter: below the 5 % d a fabric
+        # relaxation may reach on its way (issue 9)
+        self.depth_limit = float(depth) * 2.0 * (min(radii) if radii else np.inf)
 
     def evaluate(self, state, hessian=True):
         """(E, g, H, H_psd): H CSR on the free dofs and H_psd a function returning
@@ -82,6 +88,13 @@ class EnergyProblem:
                 Hp = Hp + block_matrix(dofs, psd_project(Kb), asm.n_dofs, self.free)
             return Hp
         return E, g, H, psd_model
+
+    def depth(self):
+        """Deepest contact penetration (length, >= 0) of the last evaluated
+        state; 0 without contact."""
+        contact = self.model.contact_model
+        report = contact.report if contact is not None else None
+        return max(0.0, -report.min_gap) if report is not None else 0.0
 
     def residual(self, g):
         """Relative residual against the model's fixed force scale."""
