@@ -84,6 +84,8 @@ def test_small_swatch_relaxes_to_a_converged_stable_equilibrium(relaxed_3x4):
     summary, _, out = relaxed_3x4
     assert summary["error"] is None and summary["converged"] and summary["residual"] <= 1e-8
     assert summary["stable"] and summary["negative_eigenvalues"] == 0
+    # the scaled tangent's lowest eigenvalue agrees with the inertia
+    assert summary["lowest_eigenvalue"] > 0
     assert summary["max_penetration_over_d"] <= 0.05
     assert 0.0 <= summary["penetration_over_d"] <= summary["max_penetration_over_d"]
     assert summary["curl"] in ("flat", "side", "double", "top_bottom")

@@ -88,17 +88,6 @@ def _load_checkpoint(path, scene, model):
             increments, partial)
 
 
-def lowest_scaled_eigenvalue(H):
-    """Lowest eigenvalue of the tangent scaled by its diagonal, D^-1/2 H D^-1/2
-    (dimensionless: forces and moments mixed; > 0 exactly when H is positive
-    definite, by congruence)."""
-    from scipy import sparse
-    from ..solve.stability import lowest_eigenvalues
-    d = np.sqrt(np.maximum(np.abs(H.diagonal()), 1e-300))
-    S = sparse.diags(1.0 / d) @ H @ sparse.diags(1.0 / d)
-    return float(lowest_eigenvalues(S, 1)[0])
-
-
 def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_options=None):
     """Relax the :class:`FabricScene` ``scene`` and classify its curl; returns the
     summary dict (see the README's fabric section for the keys).
@@ -164,8 +153,6 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         from .fabric_relax import equilibrium
         eq = equilibrium(model, failure.state, False, failure.increments)
     shape = swatch_curl(eq.state.x, swatch)
-    from ..beam.energy import EnergyProblem
-    H = EnergyProblem(model, 1.0).evaluate(eq.state, True)[2]
     fields_ = {
         "curl": shape.curl, "edges_touch": bool(shape.edges_touch),
         "roll_deg": {k: float(v) for k, v in shape.roll_deg.items()},
@@ -180,7 +167,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         "nw": scene.nw, "nc": scene.nc, "model": "beam", "alpha": scene.alpha, **fields_,
         "converged": bool(eq.converged), "residual": eq.residual, "stable": bool(eq.stable),
         "negative_eigenvalues": eq.negative_eigenvalues,
-        "lowest_eigenvalue": lowest_scaled_eigenvalue(H),
+        "lowest_eigenvalue": eq.lowest_eigenvalue,
         "max_penetration_over_d": eq.max_penetration / (2.0 * scene.radius),
         # the answer's own (the key above is the deepest along the path)
         "penetration_over_d": eq.penetration / (2.0 * scene.radius),

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..beam.energy import EnergyProblem
 from ..solve.minimize import RelaxationError, minimize
-from ..solve.stability import inertia
+from ..solve.stability import inertia, lowest_scaled_eigenvalue
 
 
 class FabricRelaxationError(RuntimeError):
@@ -75,6 +75,7 @@ class FabricEquilibrium:
     max_penetration: float = 0.0    # largest penetration along the path (length)
     coulomb_excess: float = 0.0     # friction force above mu f_n now, over the total
     penetration: float = 0.0        # penetration at the answer itself (length)
+    lowest_eigenvalue: float = float("nan")   # of the diagonally scaled tangent
 
 
 def _gap_watch(model, sink):
@@ -257,4 +258,4 @@ def equilibrium(model, state, converged, increments):
     return FabricEquilibrium(state, bool(converged), residual, negative == 0, int(negative),
                              reaction, int(sum(inc.iterations for inc in increments)),
                              increments, max(0.0, -min(gaps, default=0.0)), excess,
-                             penetration)
+                             penetration, lowest_scaled_eigenvalue(H))

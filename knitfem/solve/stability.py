@@ -114,3 +114,12 @@ def inertia(K):
 def negative_eigenvalue_count(K):
     """Number of negative eigenvalues of sym(K) (the index of an equilibrium)."""
     return inertia(K)[0]
+
+
+def lowest_scaled_eigenvalue(H):
+    """Lowest eigenvalue of the tangent scaled by its diagonal, D^-1/2 H D^-1/2
+    (dimensionless: forces and moments mixed; > 0 exactly when H is positive
+    definite, by congruence)."""
+    d = np.sqrt(np.maximum(np.abs(H.diagonal()), 1e-300))
+    S = sparse.diags(1.0 / d) @ H @ sparse.diags(1.0 / d)
+    return float(lowest_eigenvalues(S, 1)[0])
