@@ -127,6 +127,20 @@ def test_a_minimum_beyond_the_depth_limit_is_an_error_that_says_so():
     assert err.value.state[0] <= 1.5 + 1e-12
 
 
+def test_a_stall_after_an_earlier_depth_cut_is_not_blamed_on_the_guard():
+    """The first line search is cut by the guard (x ~ 1.62 -> 0.81); beyond
+    x = 0.7 the gradient has the wrong sign, so the minimiser then stalls for
+    a reason that has nothing to do with depth: the message must not say it
+    did (a counter over the whole run did)."""
+    class WrongBeyond(_Wall):
+        def evaluate(self, x, hessian=True):
+            E, g, H, Hp = super().evaluate(x, hessian)
+            return E, (-g if x[0] > 0.7 else g), H, Hp
+    with pytest.raises(RelaxationError) as err:
+        minimize(WrongBeyond(1.3), np.zeros(1), tol=1e-10, max_iter=500)
+    assert "stalled" in str(err.value) and "deeper" not in str(err.value)
+
+
 def test_tie_carries_the_load_as_springs_in_series():
     """Rod A (clamped at x = 0) and rod B (clamped at x = 2.1), A's end tied to
     B's start 0.1 away, a force P along +x at A's end: A's tip moves

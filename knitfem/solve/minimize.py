@@ -23,8 +23,9 @@ Problem protocol (nothing here knows about beams):
 ``retract(x, dx) -> x``; ``residual(g) -> float``, the convergence measure
 (a relative residual against a fixed scale); optional ``step_limit(x, dx) ->
 float`` in (0, 1], the largest fraction of dx that may be taken; optional
-``depth() -> float`` with ``depth_limit``: how deep the last evaluated state
-pushes its bodies into each other (a length): a trial step deeper than
+``depth() -> float`` (with ``depth_limit``, default inf): how deep the last
+evaluated state pushes its bodies into each other (a length; the last
+evaluation is always the current state or the trial): a trial step deeper than
 ``max(depth_limit, depth now)`` is cut like one that raises the energy, so
 no accepted state passes the limit unless the start already did (and then
 goes no deeper).  A penalty contact lowers the energy by letting a tense
@@ -84,8 +85,8 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
     exact_failed = 0
     limit = getattr(problem, "step_limit", None)
     depth = getattr(problem, "depth", None)
+    depth_limit = getattr(problem, "depth_limit", np.inf)
     deepest = depth() if depth is not None else 0.0
-    too_deep = 0
     for it in range(max_iter + 1):
         res = float(problem.residual(g))
         if not np.isfinite(E) or not np.isfinite(res):
@@ -125,18 +126,16 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
         # (~1e-15 |E|, summed over many terms): there a step that does not
         # raise E beyond that noise is accepted if it lowers the residual
         noise = 1e-12 * max(abs(E), 1e-300)
+        too_deep = 0            # trials of this line search that only the depth guard cut
         for _ in range(max_cuts):
             x_try = problem.retract(x, t * dx)
             E_try, g_try = problem.evaluate(x_try, False)[:2]
-            if not np.isfinite(E_try):
-                pass
-            elif depth is not None and depth() > max(problem.depth_limit, deepest):
+            lower = np.isfinite(E_try) and (
+                E_try <= E + 1e-4 * t * slope or
+                (-t * slope < noise and E_try <= E + noise and problem.residual(g_try) < res))
+            if lower and depth is not None and depth() > max(depth_limit, deepest):
                 too_deep += 1
-            elif E_try <= E + 1e-4 * t * slope:
-                accepted = True
-                break
-            elif -t * slope < noise and E_try <= E + noise and \
-                    problem.residual(g_try) < res:
+            elif lower:
                 accepted = True
                 break
             t *= 0.5
@@ -146,10 +145,13 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
             deepest = depth() if depth is not None else 0.0
             mu = max(mu / 3.0, MU_MIN) if t == 1.0 else (2.0 * mu if t < 0.25 else mu)
         else:
+            # the problem's last evaluation is x again: hooks that read it
+            # (progress, depth) see the current state, not a rejected trial
+            problem.evaluate(x, False)
             mu = min(10.0 * mu, MU_MAX)
             if mu >= MU_MAX:
-                why = (f"; {too_deep} trial steps were cut for pushing contacts deeper "
-                       f"than {problem.depth_limit:.3g} into each other (the contact penalty "
+                why = (f"; {too_deep} of its trial steps lowered the energy but were cut for "
+                       f"pushing contacts deeper than {depth_limit:.3g} into each other (the contact penalty "
                        f"may be too soft for these forces)") if too_deep else ""
                 raise RelaxationError(f"relaxation stalled at iteration {it}: no decrease of "
                                       f"the energy along a damped Newton step (residual "
