@@ -92,13 +92,37 @@ def test_friction_forces_are_internal(rng):
     state = problem.retract(state, 1e-3 * rng.normal(size=int(problem.free.sum())))
     contact = model.contact_model
     _, groups = contact.blocks(state.x, state.q, tangent=False)
-    dofs, grads, _ = groups[1]
+    dofs, grads, _, _ = groups[1]
     f = np.bincount(dofs.ravel(), grads.ravel(), minlength=contact.n_dofs).reshape(-1, 6)
     net = f[:, :3].sum(axis=0)
     moment = (np.cross(state.x, f[:, :3]) + f[:, 3:]).sum(axis=0)
     scale = np.abs(f[:, :3]).sum(axis=0).max()
     assert np.linalg.norm(net) <= 1e-12 * scale
     assert np.linalg.norm(moment) <= 0.05 * scale * 0.1
+
+
+def test_the_psd_model_takes_the_friction_blocks_as_they_are(rng):
+    """The minimiser's PSD model skips projecting the friction blocks (PSD by
+    construction, test above): it equals the model that projects every block
+    to round-off, away from equilibrium, with friction slipping."""
+    from knitfem.beam.assembly import block_matrix
+    from knitfem.beam.element import element_forces
+    from knitfem.solve.psd import psd_project
+    model = resting_yarn()
+    state = settle(model)
+    problem = EnergyProblem(model, 1.0)
+    state = problem.retract(state, 1e-2 * rng.normal(size=int(problem.free.sum())))
+    Hp = problem.evaluate(state, True)[3]()
+    asm, contact = model.assembly, model.contact_model
+    a, b = asm.elements
+    Ke = element_forces(state.x[a], state.x[b], state.q[a], state.q[b], asm.h, asm.gamma0,
+                        asm.kappa0, asm.CN, asm.CM, True)[2]
+    reference = asm.scatter(psd_project(Ke), problem.free)
+    groups = contact.blocks(state.x, state.q, True)[1]
+    assert len(groups) == 2 and groups[1][3] and len(groups[1][0])     # friction is active
+    for dofs, _, Kb, _ in groups:
+        reference = reference + block_matrix(dofs, psd_project(Kb), asm.n_dofs, problem.free)
+    assert abs(Hp - reference).max() <= 1e-12 * abs(reference).max()
 
 
 def test_pulled_yarn_holds_below_mu_N():
@@ -120,7 +144,7 @@ def test_pulled_yarn_holds_below_mu_N():
     slip = np.linalg.norm(u, axis=1)
     assert slip.min() < contact.slip and slip.max() < 10 * contact.slip
     _, groups = contact.blocks(result.state.x, result.state.q, tangent=False)
-    dofs, grads, _ = groups[1]
+    dofs, grads, _, _ = groups[1]
     fx = np.bincount(dofs.ravel(), grads.ravel(), minlength=contact.n_dofs).reshape(-1, 6)
     top = slice(model.assembly.node_offset[1], model.assembly.node_offset[2])
     assert np.isclose(fx[top, 0].sum(), 0.5 * MU * N, rtol=1e-6)

@@ -109,8 +109,10 @@ class BeamContact:
 
     def blocks(self, x, q=None, tangent=True):
         """Energy and per-block groups [(dofs (m, w), gradients (m, w), Hessians
-        (m, w, w) or None)]: contact pairs (w = 18 translations), friction
-        anchors (w = 30: 18 translations, 12 rotations; frames q needed)."""
+        (m, w, w) or None, psd)]: contact pairs (w = 18 translations), friction
+        anchors (w = 30: 18 translations, 12 rotations; frames q needed);
+        ``psd`` says whether every Hessian block is positive semi-definite
+        by construction (friction: :func:`knitfem.contact.friction.friction_forces`)."""
         a, b = self.nodes[:, 0], self.nodes[:, 1]
         previous, rate = None, 0.0
         if self.damping > 0.0 and self.rate_reference is not None:
@@ -118,7 +120,7 @@ class BeamContact:
             previous, rate = (x_prev[a], x_prev[b]), self.damping / dt
         energy, _, ends, grads, hess, self.report = self.segments.evaluate(
             x[a], x[b], tangent, self.length, previous, rate)
-        groups = [(self._dofs(ends), grads, hess)]
+        groups = [(self._dofs(ends), grads, hess, False)]
         if self.anchors is not None and len(self.anchors.ends):
             if q is None:
                 raise ValueError("friction needs the frames q (it twists the yarns)")
@@ -135,7 +137,7 @@ class BeamContact:
             energy += Ef
             dofs = np.concatenate([self._dofs(self.anchors.ends),
                                    self._rot_dofs(self.anchors.rot_ends)], axis=1)
-            groups.append((dofs, gf, hf))
+            groups.append((dofs, gf, hf, True))
         return energy, groups
 
     def forces(self, x, tangent=True, free=None, direction=None, q=None):
@@ -146,7 +148,7 @@ class BeamContact:
         K = Kv = None
         if tangent:
             Kv = np.zeros(self.n_dofs) if direction is not None else None
-        for dofs, grads, hess in groups:
+        for dofs, grads, hess, _ in groups:
             f += block_vector(dofs, grads, self.n_dofs)
             if tangent:
                 Kg = block_matrix(dofs, hess, self.n_dofs, free)
