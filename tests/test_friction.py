@@ -121,8 +121,33 @@ def test_the_psd_model_takes_the_friction_blocks_as_they_are(rng):
     groups = contact.blocks(state.x, state.q, True)[1]
     assert len(groups) == 2 and groups[1][3] and len(groups[1][0])     # friction is active
     for dofs, _, Kb, _ in groups:
+        Kb = Kb.dense() if hasattr(Kb, "J") else Kb
         reference = reference + block_matrix(dofs, psd_project(Kb), asm.n_dofs, problem.free)
     assert abs(Hp - reference).max() <= 1e-12 * abs(reference).max()
+
+
+def test_factored_friction_blocks_assemble_to_the_dense_ones(rng):
+    """The friction Hessian assembled from its factors (J^T H3 J by sparse
+    products, structural zeros dropped, fixed dofs cut) equals the dense
+    blocks' assembly, and its block action equals the dense product."""
+    from knitfem.beam.assembly import block_matrix
+    model = resting_yarn()
+    state = settle(model)
+    contact = model.contact_model
+    a, b = contact.nodes[:, 0], contact.nodes[:, 1]
+    x = state.x + 1e-2 * rng.normal(size=state.x.shape)
+    theta = 1e-2 * rng.normal(size=(len(a), 2, 3))
+    _, _, F = friction_forces(contact.anchors, x[a], x[b], contact.slip, True, theta,
+                              factored=True)
+    dense = F.dense()
+    dofs = np.concatenate([contact._dofs(contact.anchors.ends),
+                           contact._rot_dofs(contact.anchors.rot_ends)], axis=1)
+    free = ~model.fixed
+    reference = block_matrix(dofs, dense, contact.n_dofs, free)
+    assert abs(block_matrix(dofs, F, contact.n_dofs, free) - reference).max() <= \
+        1e-12 * abs(reference).max()
+    v = rng.normal(size=dofs.shape)
+    assert np.allclose(F.apply(v), np.einsum("kij,kj->ki", dense, v), rtol=1e-12, atol=0)
 
 
 def test_pulled_yarn_holds_below_mu_N():

@@ -163,10 +163,35 @@ def block_vector(dofs, values, n_dofs):
     return np.bincount(dofs.ravel(), np.ravel(values), minlength=n_dofs)
 
 
+def _factored_matrix(dofs, blocks, n_dofs, free):
+    """block_matrix of :class:`knitfem.contact.friction.Factored` blocks:
+    G^T W G with G (m r, n) the factors J scattered to the dofs (their
+    structural zeros dropped) and W block-diagonal H, by sparse products."""
+    J, H = blocks.J, blocks.H
+    m, r, w = J.shape
+    n = n_dofs
+    cols = np.broadcast_to(dofs[:, None, :], J.shape).ravel()
+    rows = np.broadcast_to(np.arange(m * r).reshape(m, r, 1), J.shape).ravel()
+    data = J.ravel()
+    keep = data != 0.0
+    if free is not None:
+        index = np.cumsum(free) - 1
+        index[~free] = -1
+        n = int(np.count_nonzero(free))
+        cols = index[cols]
+        keep &= cols >= 0
+    G = sparse.csr_matrix((data[keep], (rows[keep], cols[keep])), shape=(m * r, n))
+    W = sparse.bsr_matrix((H, np.arange(m), np.arange(m + 1)), shape=(m * r, m * r))
+    return (G.T @ (W @ G)).tocsr()
+
+
 def block_matrix(dofs, blocks, n_dofs, free=None):
     """CSR matrix of per-block matrices blocks (m, k, k) at dofs (m, k) (duplicates
     summed), restricted to the ``free`` dofs (mask (n_dofs,)) if given.  For terms
-    whose pattern changes between calls (contact pairs, ties)."""
+    whose pattern changes between calls (contact pairs, ties).  ``blocks`` may
+    also be :class:`knitfem.contact.friction.Factored` (J^T H J per block)."""
+    if hasattr(blocks, "J"):
+        return _factored_matrix(dofs, blocks, n_dofs, free)
     rows = np.broadcast_to(dofs[:, :, None], blocks.shape).ravel()
     cols = np.broadcast_to(dofs[:, None, :], blocks.shape).ravel()
     data, n = np.ravel(blocks), n_dofs

@@ -74,8 +74,8 @@ class EnergyProblem:
         for dofs, fe, Kb, psd in groups:
             f += np.bincount(dofs.ravel(), np.ravel(fe), minlength=asm.n_dofs)
             if hessian and len(dofs):
-                Kg = block_matrix(dofs, 0.5 * (Kb + np.swapaxes(Kb, 1, 2)), asm.n_dofs,
-                                  self.free)
+                symmetric = Kb if hasattr(Kb, "J") else 0.5 * (Kb + np.swapaxes(Kb, 1, 2))
+                Kg = block_matrix(dofs, symmetric, asm.n_dofs, self.free)
                 H = H + Kg
                 if psd:
                     convex = Kg if convex is None else convex + Kg

@@ -110,7 +110,8 @@ class BeamContact:
     def blocks(self, x, q=None, tangent=True):
         """Energy and per-block groups [(dofs (m, w), gradients (m, w), Hessians
         (m, w, w) or None, psd)]: contact pairs (w = 18 translations), friction
-        anchors (w = 30: 18 translations, 12 rotations; frames q needed);
+        anchors (w = 30: 18 translations, 12 rotations; frames q needed; their
+        Hessians :class:`knitfem.contact.friction.Factored`);
         ``psd`` says whether every Hessian block is positive semi-definite
         by construction (friction: :func:`knitfem.contact.friction.friction_forces`)."""
         a, b = self.nodes[:, 0], self.nodes[:, 1]
@@ -126,7 +127,7 @@ class BeamContact:
                 raise ValueError("friction needs the frames q (it twists the yarns)")
             theta, ends_theta = self._turns(q)
             Ef, gf, hf = friction_forces(self.anchors, x[a], x[b], self.slip, tangent,
-                                         ends_theta)
+                                         ends_theta, factored=True)
             # d theta / d(spatial increment) = J_l(theta)^-1: exact gradients for
             # the energy line search (the Hessian keeps the leading term)
             rot_nodes = self.nodes[self.anchors.rot_ends // 2, self.anchors.rot_ends % 2]
@@ -154,8 +155,9 @@ class BeamContact:
                 Kg = block_matrix(dofs, hess, self.n_dofs, free)
                 K = Kg if K is None else K + Kg
                 if direction is not None:
-                    Kv += block_vector(dofs, np.einsum("mij,mj->mi", hess, direction[dofs]),
-                                       self.n_dofs)
+                    v = direction[dofs]
+                    Kv += block_vector(dofs, hess.apply(v) if hasattr(hess, "J") else
+                                       np.einsum("mij,mj->mi", hess, v), self.n_dofs)
         return energy, f, K, Kv
 
 

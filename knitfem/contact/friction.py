@@ -166,17 +166,39 @@ def _f0(y, eps):
     return np.where(y < eps, y * y / eps - y**3 / (3.0 * eps * eps) + eps / 3.0, y)
 
 
-def friction_forces(anchors, x0, x1, eps, tangent=True, theta=None):
+class Factored(NamedTuple):
+    """Hessian blocks given by factors: block k = J[k]^T H[k] J[k], J (k, r, w),
+    H (k, r, r) symmetric.  A friction block is 30 x 30 of rank <= 2 (the slip
+    lives in the tangent plane): assembled from its factors it costs a
+    fraction of the dense blocks (:func:`knitfem.beam.assembly.block_matrix`)."""
+    J: np.ndarray
+    H: np.ndarray
+
+    def dense(self):
+        """The blocks (k, w, w)."""
+        return np.einsum("kiz,kij,kjw->kzw", self.J, self.H, self.J)
+
+    def apply(self, v):
+        """Per block J^T H J v for block vectors v (k, w)."""
+        Jv = np.einsum("kiw,kw->ki", self.J, v)
+        return np.einsum("kiw,kij,kj->kw", self.J, self.H, Jv)
+
+
+def friction_forces(anchors, x0, x1, eps, tangent=True, theta=None, factored=False):
     """Dissipation potential, gradients (k, 18) and Hessians (k, 18, 18) in the
     anchors' translation slots, for the segment ends x0, x1 and the stick slip
     eps.  With theta (n, 2, 3), the rotation vectors of the segment ends since
     the anchor, the slots are 6 translations then 4 rotations: (k, 30) and
-    (k, 30, 30) (derivatives with respect to theta)."""
+    (k, 30, 30) (derivatives with respect to theta).  ``factored``: the
+    Hessians as :class:`Factored` (J (k, 3, w), H3 (k, 3, 3)) instead."""
     a = anchors
     k = a.ends.shape[0]
     width = 3 * SLOTS + (12 if theta is not None else 0)
     if k == 0:
-        return 0.0, np.zeros((0, width)), (np.zeros((0, width, width)) if tangent else None)
+        if not tangent:
+            return 0.0, np.zeros((0, width)), None
+        return 0.0, np.zeros((0, width)), (Factored(np.zeros((0, 3, width)), np.zeros((0, 3, 3)))
+                                           if factored else np.zeros((0, width, width)))
     u = slips(a, x0, x1, theta)
     y = np.linalg.norm(u, axis=1)
     stick = y < eps
@@ -205,5 +227,5 @@ def friction_forces(anchors, x0, x1, eps, tangent=True, theta=None):
     second = np.where(stick, -y / eps**2, -1.0 / np.maximum(y, 1e-300))
     H3 = a.coefficient[:, None, None] * (f1_y[:, None, None] * P + second[:, None, None]
                                          * uhat[:, :, None] * uhat[:, None, :])
-    hess = np.einsum("kiz,kij,kjw->kzw", J, H3, J)
-    return energy, grads, hess
+    hess = Factored(J, H3)
+    return energy, grads, (hess if factored else hess.dense())
