@@ -3,6 +3,7 @@ of one minimisation iteration goes, and how it scales with the swatch.
 
     python studies/bench_fabric.py --out studies/results/bench_fabric \\
         [--sizes 3x4,5x5,10x10,10x35,25x35] [--repeat 5] [--runs DIR ...]
+        [--checkpoint RUN/checkpoint.npz ...]
 
 For each swatch: the scene of ``knitfem curl`` (defaults, alpha 0.2), the
 homotopy at lam = 0.1 and ``--warm`` minimisation iterations (so that the
@@ -12,7 +13,10 @@ the contact with friction (search, closest points, blocks), the whole
 energy + gradient (a line-search trial), the whole energy + gradient +
 sparse Hessian, the PSD model of the Hessian (used where it is indefinite)
 and the sparse Cholesky factorisation of H + mu D (the solve of one step).
-One BLAS / numba thread.  ``--runs`` adds the wall time and iterations of
+``--checkpoint`` measures instead at the state and friction anchors of a
+``knitfem curl`` run's checkpoint (a relaxed swatch carries thousands of
+friction anchors, the warm start almost none).  One BLAS / numba thread.
+``--sizes ""`` measures checkpoints only.  ``--runs`` adds the wall time and iterations of
 finished ``knitfem curl`` runs (their ``curl_*.json``) to the table.
 
 Writes OUT/bench_fabric.json and OUT/bench_fabric.md.
@@ -32,6 +36,7 @@ from scipy import sparse  # noqa: E402
 from knitfem.beam.element import element_forces  # noqa: E402
 from knitfem.beam.energy import EnergyProblem  # noqa: E402
 from knitfem.io import write_json  # noqa: E402
+from knitfem.scenes.curl import _load_checkpoint  # noqa: E402
 from knitfem.scenes.fabric import FabricScene, Homotopy, build  # noqa: E402
 from knitfem.solve.factor import Cholesky, NotPositiveDefinite, cholmod_available  # noqa: E402
 from knitfem.solve.minimize import _factor, minimize  # noqa: E402
@@ -46,17 +51,26 @@ def median_time(function, repeat):
     return float(np.median(times))
 
 
-def measure(nw, nc, repeat, warm):
+def measure(nw, nc, repeat, warm, checkpoint=None):
     t = time.perf_counter()
     scene = FabricScene(nw, nc)
+    if checkpoint is not None:
+        scene = FabricScene(**json.loads(str(np.load(checkpoint)["scene"])))
     model, _, info = build(scene)
     built = time.perf_counter() - t
-    Homotopy(model, scene.alpha).apply(0.1)
-    state = model.initial_state()
     contact = model.contact_model
-    contact.anchor_friction(state.x, state.q)
     problem = EnergyProblem(model, 1.0)
-    state = minimize(problem, state, tol=0.0, max_iter=warm, raise_on_failure=False).state
+    if checkpoint is None:
+        lam = 0.1
+        Homotopy(model, scene.alpha).apply(lam)
+        state = model.initial_state()
+        contact.anchor_friction(state.x, state.q)
+        state = minimize(problem, state, tol=0.0, max_iter=warm, raise_on_failure=False).state
+    else:
+        # a relaxation's own state and friction anchors (the warm start has
+        # hardly any anchors: friction forms as the yarns tighten)
+        state, lam = _load_checkpoint(Path(checkpoint), scene, model)[:2]
+        Homotopy(model, scene.alpha).apply(lam)
     asm = model.assembly
     a, b = asm.elements
 
@@ -67,8 +81,10 @@ def measure(nw, nc, repeat, warm):
     D = np.maximum(np.abs(H.diagonal()), 1e-12 * np.abs(H.diagonal()).max())
     model_psd = Hp()
     row = {
-        "nw": nw, "nc": nc, "unknowns": int(info["free_dofs"]), "build_s": built,
+        "nw": scene.nw, "nc": scene.nc, "unknowns": int(info["free_dofs"]), "build_s": built,
+        "alpha": scene.alpha, "lam": lam, "from": "checkpoint" if checkpoint else "warm start",
         "active_pairs": int(contact.report.active_pairs),
+        "friction_anchors": 0 if contact.anchors is None else int(len(contact.anchors.key)),
         "beam_s": median_time(beam, repeat),
         "contact_s": median_time(lambda: contact.blocks(state.x, state.q, True), repeat),
         "energy_gradient_s": median_time(lambda: problem.evaluate(state, False), repeat),
@@ -102,11 +118,12 @@ def runs_table(folders):
 
 
 def markdown(rows, runs):
-    lines = ["| swatch | unknowns | active pairs | beam | contact | E + g | E + g + H | "
-             "PSD model | Cholesky QDLDL | Cholesky CHOLMOD | one iteration (≈) |",
-             "|---|" + "---:|" * 10]
+    lines = ["| swatch | state | unknowns | active pairs | friction anchors | beam | contact | "
+             "E + g | E + g + H | PSD model | Cholesky QDLDL | Cholesky CHOLMOD | "
+             "one iteration (≈) |", "|---|---|" + "---:|" * 11]
     for r in rows:
-        lines.append(f"| {r['nw']} × {r['nc']} | {r['unknowns']} | {r['active_pairs']} | "
+        lines.append(f"| {r['nw']} × {r['nc']} | {r['from']}, λ = {r['lam']:.2g} | "
+                     f"{r['unknowns']} | {r['active_pairs']} | {r['friction_anchors']} | "
                      + " | ".join(f"{1e3 * r[k]:.1f} ms" if k in r else "–" for k in (
                          "beam_s", "contact_s", "energy_gradient_s", "energy_gradient_hessian_s",
                          "psd_model_s", "factor_qdldl_s", "factor_cholmod_s", "iteration_s"))
@@ -128,13 +145,20 @@ def main():
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--warm", type=int, default=10)
     parser.add_argument("--runs", nargs="*", default=[])
+    parser.add_argument("--checkpoint", nargs="*", default=[],
+                        help="checkpoint.npz files of knitfem curl runs: measure at their "
+                             "state and friction anchors (scene from the checkpoint)")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
-    for size in args.sizes.split(","):
-        nw, nc = (int(v) for v in size.lower().split("x"))
+    sizes = [tuple(int(v) for v in size.lower().split("x"))
+             for size in args.sizes.split(",") if size]
+    for nw, nc in sizes:
         rows.append(measure(nw, nc, args.repeat, args.warm))
+        print(json.dumps(rows[-1]), flush=True)
+    for path in args.checkpoint:
+        rows.append(measure(None, None, args.repeat, args.warm, path))
         print(json.dumps(rows[-1]), flush=True)
     runs = runs_table(args.runs)
     write_json(out / "bench_fabric.json", {"iteration": rows, "runs": runs})
