@@ -53,9 +53,8 @@ def median_time(function, repeat):
 
 def measure(nw, nc, repeat, warm, checkpoint=None):
     t = time.perf_counter()
-    scene = FabricScene(nw, nc)
-    if checkpoint is not None:
-        scene = FabricScene(**json.loads(str(np.load(checkpoint)["scene"])))
+    scene = FabricScene(nw, nc) if checkpoint is None else \
+        FabricScene(**json.loads(str(np.load(checkpoint)["scene"])))
     model, _, info = build(scene)
     built = time.perf_counter() - t
     contact = model.contact_model

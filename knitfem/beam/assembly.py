@@ -163,6 +163,13 @@ def block_vector(dofs, values, n_dofs):
     return np.bincount(dofs.ravel(), np.ravel(values), minlength=n_dofs)
 
 
+def _free_numbering(free):
+    """Index of every dof among the ``free`` ones (-1 where fixed) and their count."""
+    index = np.cumsum(free) - 1
+    index[~free] = -1
+    return index, int(np.count_nonzero(free))
+
+
 def _factored_matrix(dofs, blocks, n_dofs, free):
     """block_matrix of :class:`knitfem.contact.friction.Factored` blocks:
     G^T W G with G (m r, n) the factors J scattered to the dofs (their
@@ -175,9 +182,7 @@ def _factored_matrix(dofs, blocks, n_dofs, free):
     data = J.ravel()
     keep = data != 0.0
     if free is not None:
-        index = np.cumsum(free) - 1
-        index[~free] = -1
-        n = int(np.count_nonzero(free))
+        index, n = _free_numbering(free)
         cols = index[cols]
         keep &= cols >= 0
     G = sparse.csr_matrix((data[keep], (rows[keep], cols[keep])), shape=(m * r, n))
@@ -196,9 +201,8 @@ def block_matrix(dofs, blocks, n_dofs, free=None):
     cols = np.broadcast_to(dofs[:, None, :], blocks.shape).ravel()
     data, n = np.ravel(blocks), n_dofs
     if free is not None:
-        index = np.cumsum(free) - 1
-        index[~free] = -1
+        index, n = _free_numbering(free)
         rows, cols = index[rows], index[cols]
         keep = (rows >= 0) & (cols >= 0)
-        rows, cols, data, n = rows[keep], cols[keep], data[keep], int(np.count_nonzero(free))
+        rows, cols, data = rows[keep], cols[keep], data[keep]
     return sparse.csr_matrix((data, (rows, cols)), shape=(n, n))
