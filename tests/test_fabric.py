@@ -250,6 +250,47 @@ def test_a_failed_attempts_work_is_counted_but_not_its_path(monkeypatch):
     assert eq.max_penetration == 0.0
 
 
+def _scripted_rounds(monkeypatch, residuals, tol=1e-8):
+    """Replace a friction round by one that ends at the next of ``residuals``
+    (converged when below ``tol``) without moving: the increment's control
+    logic alone."""
+    ends = iter(residuals)
+
+    class Result:
+        pass
+
+    def scripted(model, state, lam, tol_, iterations, progress=None):
+        result = Result()
+        result.state, result.iterations, result.energy = state, 1, 0.0
+        result.residual = next(ends)
+        result.converged = result.residual <= tol
+        return result, np.inf
+    monkeypatch.setattr(fabric_relax, "_round", scripted)
+
+
+def test_final_rounds_go_on_while_they_contract_and_stop_when_they_do_not(monkeypatch):
+    """At lam = 1 the lagged friction's rounds are a fixed point: while each
+    round ends at half the residual of the one before, rounds beyond
+    ``max_rounds`` go on (up to ``extra_rounds``); once they stall the
+    increment fails, saying after how many rounds."""
+    model, _, _ = build(FabricScene(3, 3))
+    state = model.initial_state()
+    halving = [10.0 ** -k for k in range(1, 12)]      # converges in round 8
+    _scripted_rounds(monkeypatch, halving)
+    result, inc = fabric_relax._increment(model, state, 1.0, 1e-8, 5, 4, np.inf,
+                                          extra_rounds=8)
+    assert result is not None and result.converged and result.residual == 1e-8
+    assert inc.iterations == 8
+    stalling = [1e-1, 1e-2, 1e-3, 1e-4, 0.9e-4, 1e-9]    # round 5 stalls
+    _scripted_rounds(monkeypatch, stalling)
+    result, reason, inc = fabric_relax._increment(model, state, 1.0, 1e-8, 5, 4, np.inf,
+                                                  extra_rounds=8)
+    assert result is None and "in 5 rounds" in reason and not inc.accepted
+    _scripted_rounds(monkeypatch, halving)           # no extra rounds on the way
+    result, reason, inc = fabric_relax._increment(model, state, 0.5, 1e-8, 5, 4, np.inf)
+    assert result is None and "in 4 rounds" in reason
+
+
 def _contact_rounds(scene):
     """Two friction rounds at lam = 0.1 (40 + 20 minimisation steps): the
     yarns tighten onto their crossings, contacts form and friction anchors."""
