@@ -36,7 +36,7 @@ from scipy import sparse  # noqa: E402
 from knitfem.beam.element import element_forces  # noqa: E402
 from knitfem.beam.energy import EnergyProblem  # noqa: E402
 from knitfem.io import write_json  # noqa: E402
-from knitfem.scenes.curl import _load_checkpoint  # noqa: E402
+from knitfem.scenes.curl import load_checkpoint  # noqa: E402
 from knitfem.scenes.fabric import FabricScene, Homotopy, build  # noqa: E402
 from knitfem.solve.factor import Cholesky, NotPositiveDefinite, cholmod_available  # noqa: E402
 from knitfem.solve.minimize import _factor, minimize  # noqa: E402
@@ -68,7 +68,7 @@ def measure(nw, nc, repeat, warm, checkpoint=None):
     else:
         # a relaxation's own state and friction anchors (the warm start has
         # hardly any anchors: friction forms as the yarns tighten)
-        state, lam = _load_checkpoint(Path(checkpoint), scene, model)[:2]
+        state, lam = load_checkpoint(Path(checkpoint), scene, model)[:2]
         Homotopy(model, scene.alpha).apply(lam)
     asm = model.assembly
     a, b = asm.elements

@@ -334,7 +334,7 @@ def test_a_checkpoint_from_before_a_scene_field_existed_resumes_with_its_default
     del old["mirror"]
     data["scene"] = json.dumps(old, sort_keys=True)
     np.savez(path, **data)
-    state, lam, dlam, _, partial = curl_module._load_checkpoint(path, scene, model)
+    state, lam, dlam, _, partial = curl_module.load_checkpoint(path, scene, model)
     assert (lam, dlam, partial) == (0.3, 0.1, None)
     with pytest.raises(ValueError, match="--resume: .* other parameters"):
-        curl_module._load_checkpoint(path, FabricScene(3, 4, mirror=True), model)
+        curl_module.load_checkpoint(path, FabricScene(3, 4, mirror=True), model)

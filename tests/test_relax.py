@@ -205,3 +205,13 @@ def test_sparse_cholesky_solves_and_refuses_what_is_not_positive_definite(rng, b
                  backend=backend)
     with pytest.raises(ValueError, match="backend"):
         Cholesky(A, backend="umfpack")
+
+
+@pytest.mark.parametrize("option", [dict(depth=0.0), dict(depth=np.nan), dict(step=-1.0),
+                                    dict(turn=np.inf)])
+def test_energy_problem_refuses_a_nonpositive_or_nonfinite_limit(option):
+    from knitfem.scenes.fabric import FabricScene, build
+    model, _, _ = build(FabricScene(3, 3))
+    (name, _), = option.items()
+    with pytest.raises(ValueError, match=f"{name} must be a positive finite number"):
+        EnergyProblem(model, 1.0, **option)

@@ -28,6 +28,10 @@ class EnergyProblem:
     """Total potential of ``model`` at load factor ``lam`` on its free dofs."""
 
     def __init__(self, model, lam=1.0, *, step=None, turn=0.5, depth=0.04):
+        for name, value in (("step", step), ("turn", turn), ("depth", depth)):
+            if value is not None and not (np.isfinite(value) and value > 0):
+                raise ValueError(f"EnergyProblem: {name} must be a positive finite number "
+                                 f"(got {value!r})")
         model.check()
         f_ext = model.external_forces().reshape(-1, DOFS_PER_NODE)
         if np.any(f_ext[:, 3:] != 0):

@@ -51,7 +51,7 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
     os.replace(tmp, path)
 
 
-def _load_checkpoint(path, scene, model):
+def load_checkpoint(path, scene, model):
     """(state, lam, dlam, increments, partial) from a checkpoint of the same
     scene, or None; the contact model gets the equilibrium's friction anchors."""
     from ..beam.model import BeamState
@@ -107,7 +107,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     if out is not None:
         (out / "path").mkdir(parents=True, exist_ok=True)
         if resume:
-            start = _load_checkpoint(checkpoint_path, scene, model)
+            start = load_checkpoint(checkpoint_path, scene, model)
         elif checkpoint_path.exists():
             checkpoint_path.unlink()
     bar = None
