@@ -129,12 +129,21 @@ class BeamContact:
             Ef, gf, hf = friction_forces(self.anchors, x[a], x[b], self.slip, tangent,
                                          ends_theta, factored=True)
             # d theta / d(spatial increment) = J_l(theta)^-1: exact gradients for
-            # the energy line search (the Hessian keeps the leading term)
+            # the energy line search, and the Hessian's factors mapped alike
+            # (J^T H3 J; what is left out is the gradient times d2 theta, of
+            # order |g| |theta|).  With the leading term alone the Hessian was
+            # off by 270 % along the 25 x 35's final Newton steps (its soft
+            # modes are held by friction): t = 1 was refused and the rounds
+            # converged linearly, stalling near 3e-7
             rot_nodes = self.nodes[self.anchors.rot_ends // 2, self.anchors.rot_ends % 2]
             Jinv = _left_jacobian_inverse(theta[rot_nodes])            # (k, 4, 3, 3)
             g_rot = gf[:, 18:].reshape(-1, 4, 3)
             gf = np.concatenate([gf[:, :18], np.einsum("kbji,kbj->kbi", Jinv,
                                                        g_rot).reshape(-1, 12)], axis=1)
+            if hf is not None:
+                J_rot = np.einsum("kibj,kbjl->kibl", hf.J[:, :, 18:].reshape(-1, 3, 4, 3), Jinv)
+                hf = hf._replace(J=np.concatenate([hf.J[:, :, :18],
+                                                   J_rot.reshape(-1, 3, 12)], axis=2))
             energy += Ef
             dofs = np.concatenate([self._dofs(self.anchors.ends),
                                    self._rot_dofs(self.anchors.rot_ends)], axis=1)
