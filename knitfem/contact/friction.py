@@ -102,6 +102,14 @@ def anchors(points, x0, x1, prev, nxt, mu, radius):
     key = 64 * points.slave.astype(np.int64) + points.gauss
     rot_ends = np.stack([2 * A, 2 * A + 1, 2 * B, 2 * B + 1], axis=1).astype(np.int64)
     rs, rm, xi, t = radius[A], radius[B], points.xi, points.t
+    # lever arms to the one point where the pair touches, dividing the
+    # centrelines' distance d in the ratio of the radii: with rs and rm
+    # themselves the two surface points lie d - rs - rm apart (the penalty
+    # skin: +-5 % d) and every friction pair is a couple; on the relaxed
+    # 25 x 35 their sum held the swatch with 14 % of the force scale
+    d = np.abs(np.einsum("kj,kj->k", rel0, points.normal))
+    arm = d / (rs + rm)
+    rs, rm = rs * arm, rm * arm
     rot_weights = np.stack([(1.0 - xi) * rs, xi * rs, (1.0 - t) * rm, t * rm], axis=1)
     return Anchors(ends.astype(np.int64), s, rel0, points.normal.copy(),
                    mu * points.load * points.weight, key, rot_ends, rot_weights)
