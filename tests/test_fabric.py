@@ -338,3 +338,29 @@ def test_a_checkpoint_from_before_a_scene_field_existed_resumes_with_its_default
     assert (lam, dlam, partial) == (0.3, 0.1, None)
     with pytest.raises(ValueError, match="--resume: .* other parameters"):
         curl_module.load_checkpoint(path, FabricScene(3, 4, mirror=True), model)
+
+
+@pytest.mark.parametrize("move, settled", [(0.0, True), (0.5, False)])
+def test_an_answer_whose_friction_did_not_settle_says_so(monkeypatch, move, settled):
+    """The final increment ends when a converged round moved nothing (the
+    lagged friction at its fixed point) or on its round budget with the last
+    round converged: then the answer is an equilibrium for that round's
+    anchors only, and it says so (friction_settled False, the last round's
+    move) instead of passing for settled."""
+    from knitfem.beam.model import BeamState
+    model, _, _ = build(FabricScene(3, 3))
+    r = model.rods[0].section.radius
+
+    class Result:
+        pass
+
+    def moving(model, state, lam, tol, iterations, progress=None):
+        result = Result()
+        result.state = BeamState(state.x + [move * r, 0.0, 0.0], state.q)
+        result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
+        return result, np.inf
+    monkeypatch.setattr(fabric_relax, "_round", moving)
+    eq = fabric_relax.relax_fabric(model, Homotopy(model, 0.05), dlam=1.0)
+    assert eq.friction_settled is settled
+    assert eq.last_round_move == pytest.approx(move * r)
+    assert eq.increments[-1].iterations == (2 if settled else 8)

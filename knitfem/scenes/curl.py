@@ -33,7 +33,7 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
     data = {"x": state.x, "q": state.q, "lam": lam, "dlam": dlam,
             "scene": json.dumps(scene.as_dict(), sort_keys=True),
             "increments": np.array([[i.lam, i.iterations, i.residual, i.energy, i.min_gap,
-                                     i.seconds, i.accepted] for i in increments])}
+                                     i.seconds, i.accepted, i.moved] for i in increments])}
     anchors = [("", partial.equilibrium if partial is not None else
                 (contact.friction_state() if contact is not None else None))]
     if partial is not None:
@@ -75,9 +75,12 @@ def load_checkpoint(path, scene, model):
     contact = model.contact_model
     if contact is not None and "anchor_key" in data.files:
         contact.restore_friction(friction(""))
-    # (a checkpoint from before failed attempts were kept has six columns)
+    # (a checkpoint from before failed attempts were kept has six columns,
+    # from before the last round's move was kept seven)
     increments = [Increment(float(r[0]), int(r[1]), *map(float, r[2:6]),
-                            bool(r[6]) if len(r) > 6 else True) for r in data["increments"]]
+                            bool(r[6]) if len(r) > 6 else True,
+                            float(r[7]) if len(r) > 7 else float("nan"))
+                  for r in data["increments"]]
     partial = None
     if "partial_x" in data.files:
         target, rounds, iterations, gap, seconds = data["partial_numbers"]
@@ -172,6 +175,11 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         # the answer's own (the key above is the deepest along the path)
         "penetration_over_d": eq.penetration / (2.0 * scene.radius),
         "reaction_over_force_scale": eq.reaction, "coulomb_excess": eq.coulomb_excess,
+        # False: the final increment ended on its round budget, the lagged
+        # friction not at its fixed point (another round would move the answer
+        # by about last_round_move)
+        "friction_settled": bool(eq.friction_settled),
+        "last_round_move_over_r": eq.last_round_move / scene.radius,
         "dofs": info["free_dofs"], "iterations": eq.iterations,
         "increments": sum(inc.accepted for inc in eq.increments),
         "failed_increments": sum(not inc.accepted for inc in eq.increments),

@@ -133,6 +133,11 @@ def run(args):
         write_summary(args, summary, f"{verdict}, converged {summary['converged']}, "
                       f"stable {summary['stable']}; wrote {args.json}")
     failed = summary.get("error") is not None or not summary["converged"]
+    if summary.get("friction_settled") is False:
+        # an equilibrium, but for the last round's lagged friction anchors
+        print(f"knitfem curl: the friction did not settle: its last round moved the swatch by "
+              f"{summary['last_round_move_over_r']:.3g} yarn radii (rounds budget spent); "
+              f"another round would move the answer", file=sys.stderr)
     if failed and args.quiet:            # quiet hides the progress, never a failure
         print(f"knitfem curl: {verdict}, converged {summary['converged']}", file=sys.stderr)
     return 3 if failed else 0

@@ -64,6 +64,7 @@ class Increment:
     min_gap: float          # smallest contact gap seen at the increment's states
     seconds: float
     accepted: bool = True   # False: an attempt that failed and was retried smaller
+    moved: float = float("nan")   # largest node move of its last friction round (length)
 
 
 @dataclass
@@ -80,6 +81,12 @@ class FabricEquilibrium:
     coulomb_excess: float = 0.0     # friction force above mu f_n now, over the total
     penetration: float = 0.0        # penetration at the answer itself (length)
     lowest_eigenvalue: float = float("nan")   # of the diagonally scaled tangent
+    # the lagged friction reached its fixed point: the last round (re-anchored
+    # at the state before it) moved no node more than ``creep``; False when the
+    # final increment ended on its round budget instead (the answer is then an
+    # equilibrium for the last round's anchors, and another round would move it)
+    friction_settled: bool = True
+    last_round_move: float = float("nan")     # length
 
 
 def _gap_watch(model, sink):
@@ -177,7 +184,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         return failed(f"no converged friction round at lam = {lam:.4g} in {first + len(ends)} rounds "
                       f"(residual {residual})")
     return result, Increment(lam, total, result.residual, result.energy, gap,
-                             before + time.perf_counter() - t)
+                             before + time.perf_counter() - t, True, moved)
 
 
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=0.1,
@@ -254,7 +261,12 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
             dlam = min(1.5 * dlam, dlam_max)
         if checkpoint is not None:
             checkpoint(state, lam, dlam, increments, None)
-    return equilibrium(model, state, True, increments)
+    eq = equilibrium(model, state, True, increments)
+    final = [inc for inc in increments if inc.accepted and inc.lam == 1.0]
+    if final and np.isfinite(final[-1].moved):
+        eq.last_round_move = final[-1].moved
+        eq.friction_settled = bool(final[-1].moved <= creep)
+    return eq
 
 
 def equilibrium(model, state, converged, increments):
