@@ -141,6 +141,7 @@ def test_a_failed_relaxation_says_so_and_keeps_its_last_equilibrium(tmp_path):
     assert "relaxation failed near homotopy lam" in summary["error"]
     assert summary["last_equilibrium"]["lam"] == 0.0
     assert summary["last_equilibrium"]["curl"] in ("flat", "side", "double", "top_bottom")
+    assert summary["friction_settled"] is None and summary["last_round_move_over_r"] is None
     written = json.loads((tmp_path / "curl_3x4.json").read_text())
     assert written["error"] == summary["error"] and (tmp_path / "curl_3x4.vtu").exists()
 
@@ -364,3 +365,28 @@ def test_an_answer_whose_friction_did_not_settle_says_so(monkeypatch, move, sett
     assert eq.friction_settled is settled
     assert eq.last_round_move == pytest.approx(move * r)
     assert eq.increments[-1].iterations == (2 if settled else 8)
+
+
+def test_extra_final_rounds_survive_a_resume(monkeypatch, tmp_path):
+    """The extra final rounds go on while the rounds' residuals halve: a run
+    killed after round 8 (its checkpoint keeps the rounds' residuals) and
+    resumed must go on like the uninterrupted one, not fail for want of a
+    history and restart the increment smaller."""
+    from knitfem.scenes import curl as curl_module
+    model, _, _ = build(FabricScene(3, 3))
+    state = model.initial_state()
+    residuals = [1e-2 * 0.3 ** k for k in range(20)]      # converged in round 13
+    _scripted_rounds(monkeypatch, residuals)
+    result, inc = fabric_relax._increment(model, state, 1.0, 1e-8, 5, 8, np.inf,
+                                          extra_rounds=8)
+    assert result is not None and inc.iterations == 13
+    partial = fabric_relax.Partial(1.0, state, 8, 8, np.inf, 0.0, ends=tuple(residuals[:8]))
+    path = tmp_path / "checkpoint.npz"
+    scene = FabricScene(3, 3)
+    curl_module._save_checkpoint(path, scene, state, 0.9, 0.1, [], None, partial)
+    partial = curl_module.load_checkpoint(path, scene, model)[4]
+    assert partial.ends == tuple(residuals[:8])
+    _scripted_rounds(monkeypatch, residuals[8:])
+    result, inc = fabric_relax._increment(model, state, 1.0, 1e-8, 5, 8, np.inf,
+                                          start=partial, extra_rounds=8)
+    assert result is not None and inc.iterations == 13

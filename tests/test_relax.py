@@ -208,7 +208,8 @@ def test_sparse_cholesky_solves_and_refuses_what_is_not_positive_definite(rng, b
 
 
 @pytest.mark.parametrize("option", [dict(depth=0.0), dict(depth=np.nan), dict(step=-1.0),
-                                    dict(turn=np.inf)])
+                                    dict(turn=np.inf), dict(turn=None), dict(depth="0.04"),
+                                    dict(step=True)])
 def test_energy_problem_refuses_a_nonpositive_or_nonfinite_limit(option):
     from knitfem.scenes.fabric import FabricScene, build
     model, _, _ = build(FabricScene(3, 3))

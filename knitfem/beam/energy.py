@@ -29,7 +29,13 @@ class EnergyProblem:
 
     def __init__(self, model, lam=1.0, *, step=None, turn=0.5, depth=0.04):
         for name, value in (("step", step), ("turn", turn), ("depth", depth)):
-            if value is not None and not (np.isfinite(value) and value > 0):
+            if value is None and name == "step":      # None: half the smallest radius
+                continue
+            try:
+                ok = not isinstance(value, bool) and np.isfinite(float(value)) and value > 0
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
                 raise ValueError(f"EnergyProblem: {name} must be a positive finite number "
                                  f"(got {value!r})")
         model.check()

@@ -21,13 +21,16 @@ law is regularised by the slip eps below which the contact sticks elastically
 so the friction force mu f_n W f0'(|u_T|) never exceeds mu f_n W (Coulomb) and
 is a stiff spring 2 mu f_n W / eps in stick.
 
-Friction acts where the yarns' *surfaces* touch, r_s and r_m from the two
-centrelines, not on the centrelines: a force pair on the centrelines, 2r
-apart across the contact, would be a couple that nothing balances (measured:
-a free-floating 5 x 5 swatch held at one node then carried a reaction of 0.2
-of the force scale).  Rods that can turn (the beam model) pass the rotation
-vectors theta of their segment ends since the anchor; the slip of the
-surface points adds n x (r_s theta_s + r_m theta_m) (theta_s, theta_m
+Friction acts where the yarns touch, not on the centrelines: a force pair on
+the centrelines, 2r apart across the contact, would be a couple that nothing
+balances (measured: a free-floating 5 x 5 swatch held at one node then
+carried a reaction of 0.2 of the force scale).  The touching point divides
+the centrelines' distance d at the anchor in the ratio of the radii, lever
+arms a_s = r_s d / (r_s + r_m) and a_m = r_m d / (r_s + r_m) (with r_s, r_m
+themselves the two surface points lie d - r_s - r_m apart inside the penalty
+skin and every pair is a couple).  Rods that can turn (the beam model) pass
+the rotation vectors theta of their segment ends since the anchor; the slip
+of the touching point adds n x (a_s theta_s + a_m theta_m) (theta_s, theta_m
 interpolated along the slave chord and the master segment), so friction also
 twists and bends the yarns and the total moment balances.  D is a function of a linear map
 of the positions: gradient and Hessian are exact, the Hessian is positive
@@ -60,7 +63,7 @@ class Anchors(NamedTuple):
     anchor relative position rel0 (k, 3), normal (k, 3), mu f_n W (k,), a
     key (k,) naming the slave Gauss point (slave segment, Gauss index), and
     the rotation slots: segment ends (k, 4) (slave chord's two, master
-    segment's two) with weights (k, 4) (interpolation times the radius)."""
+    segment's two) with weights (k, 4) (interpolation times the lever arm)."""
     ends: np.ndarray
     s: np.ndarray
     rel0: np.ndarray

@@ -39,7 +39,8 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
     if partial is not None:
         data.update(partial_x=partial.state.x, partial_q=partial.state.q,
                     partial_numbers=np.array([partial.target, partial.rounds, partial.iterations,
-                                              partial.min_gap, partial.seconds]))
+                                              partial.min_gap, partial.seconds]),
+                    partial_ends=np.array(partial.ends, dtype=float))
         anchors.append(("partial_", partial.friction))
     for prefix, friction in anchors:
         if friction is not None and friction[0] is not None:
@@ -86,7 +87,8 @@ def load_checkpoint(path, scene, model):
         target, rounds, iterations, gap, seconds = data["partial_numbers"]
         partial = Partial(float(target), BeamState(data["partial_x"], data["partial_q"]),
                           int(rounds), int(iterations), float(gap), float(seconds),
-                          friction("partial_"))
+                          friction("partial_"),
+                          ends=tuple(data["partial_ends"]) if "partial_ends" in data.files else ())
     return (BeamState(data["x"], data["q"]), float(data["lam"]), float(data["dlam"]),
             increments, partial)
 
@@ -178,8 +180,11 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         # False: the final increment ended on its round budget, the lagged
         # friction not at its fixed point (another round would move the answer
         # by about last_round_move)
-        "friction_settled": bool(eq.friction_settled),
-        "last_round_move_over_r": eq.last_round_move / scene.radius,
+        "friction_settled": (None if failure is not None or eq.friction_settled is None
+                             else bool(eq.friction_settled)),
+        "last_round_move_over_r": (eq.last_round_move / scene.radius
+                                   if failure is None and np.isfinite(eq.last_round_move)
+                                   else None),
         "dofs": info["free_dofs"], "iterations": eq.iterations,
         "increments": sum(inc.accepted for inc in eq.increments),
         "failed_increments": sum(not inc.accepted for inc in eq.increments),

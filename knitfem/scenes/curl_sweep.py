@@ -36,7 +36,7 @@ BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiff
 # what a point keeps of the model's summary (the rest is in its JSON file)
 KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "height", "height_over_width",
         "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",
-        "iterations", "max_penetration_over_d", "directions_as_paper")
+        "iterations", "max_penetration_over_d", "directions_as_paper", "friction_settled")
 
 
 class CurlFailed(RuntimeError):

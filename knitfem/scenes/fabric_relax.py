@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..beam.energy import EnergyProblem
+from ..beam.rotation import quat_conjugate, quat_multiply, rotation_vector
 from ..solve.minimize import RelaxationError, minimize
 from ..solve.stability import inertia, lowest_scaled_eigenvalue
 
@@ -82,10 +83,11 @@ class FabricEquilibrium:
     penetration: float = 0.0        # penetration at the answer itself (length)
     lowest_eigenvalue: float = float("nan")   # of the diagonally scaled tangent
     # the lagged friction reached its fixed point: the last round (re-anchored
-    # at the state before it) moved no node more than ``creep``; False when the
+    # at the state before it) moved no node (nor turned a yarn's surface) more
+    # than ``creep``; False when the
     # final increment ended on its round budget instead (the answer is then an
     # equilibrium for the last round's anchors, and another round would move it)
-    friction_settled: bool = True
+    friction_settled: bool = None             # None: unknown (failed, or an older checkpoint)
     last_round_move: float = float("nan")     # length
 
 
@@ -132,6 +134,7 @@ class Partial:
     seconds: float
     friction: tuple = None       # after the last round
     equilibrium: tuple = None    # of the equilibrium at the increment's start
+    ends: tuple = ()             # the rounds' final residuals (the extra rounds' test)
 
 
 def _contracting(ends):
@@ -160,7 +163,9 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     def failed(reason):
         return None, reason, Increment(lam, total, np.nan, np.nan, gap,
                                        before + time.perf_counter() - t, False)
-    ends = []
+    ends = list(start.ends) if start is not None else []
+    radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
+    arm = min(radii) if radii else 0.0
     for k in range(first, max_rounds + extra_rounds):
         if k >= max_rounds and not _contracting(ends):
             break
@@ -172,13 +177,19 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         total += result.iterations
         ends.append(result.residual)
         gap = min(gap, g)
-        moved = float(np.max(np.abs(result.state.x - state.x)))
+        # a round that only turns frames has not settled either: turns count
+        # as the move of a point on the yarn's surface
+        turned = np.linalg.norm(rotation_vector(quat_multiply(result.state.q,
+                                                               quat_conjugate(state.q))), axis=1)
+        moved = max(float(np.max(np.abs(result.state.x - state.x))),
+                    arm * float(np.max(turned, initial=0.0)))
         state = result.state
         if result.converged and (k >= min_rounds - 1) and moved <= creep:
             break
         if on_round is not None and k + 1 < max_rounds + extra_rounds:
             on_round(Partial(lam, state, k + 1, total, gap, before + time.perf_counter() - t,
-                             contact.friction_state() if contact is not None else None))
+                             contact.friction_state() if contact is not None else None,
+                             ends=tuple(ends)))
     if result is None or not result.converged:
         residual = f"{result.residual:.2e}" if result is not None else "not computed"
         return failed(f"no converged friction round at lam = {lam:.4g} in {first + len(ends)} rounds "
