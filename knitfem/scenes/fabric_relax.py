@@ -186,7 +186,10 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         state = result.state
         if result.converged and (k >= min_rounds - 1) and moved <= creep:
             break
-        if on_round is not None and k + 1 < max_rounds + extra_rounds:
+        # a checkpoint only where another round follows: one written after the
+        # last round would resume into no round at all, without its result
+        more = k + 1 < max_rounds or (k + 1 < max_rounds + extra_rounds and _contracting(ends))
+        if on_round is not None and more:
             on_round(Partial(lam, state, k + 1, total, gap, before + time.perf_counter() - t,
                              contact.friction_state() if contact is not None else None,
                              ends=tuple(ends)))
