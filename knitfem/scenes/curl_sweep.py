@@ -27,7 +27,7 @@ ROLLS = ("left", "right", "top", "bottom")
 COLUMNS = ("nw", "nc", "nw_over_nc", "model", "status", "curl",
            *(f"roll_{k}" for k in ROLLS), "curvature_x", "curvature_y", "height",
            "height_over_width", "loop_aspect", "edges_touch", "converged", "stable",
-           "residual", "elapsed_s", "message", "error")
+           "friction_settled", "residual", "elapsed_s", "message", "error")
 # curl options of each model (the keys :func:`curl_point` passes on)
 BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_stiffness",
                    "ea_over_ei", "max_time", "max_steps", "method", "rtol")
