@@ -106,3 +106,13 @@ def test_straight_unstrained_element_has_no_force_and_a_symmetric_tangent():
                              np.zeros((n, 3)), ones, ones)
     assert np.all(E == 0) and np.all(r == 0)
     assert np.allclose(K, K.transpose(0, 2, 1), atol=1e-14)
+
+
+def test_spatial_turn_inverts_rotate_spatially():
+    """spatial_turn(exp(hat(theta)) q0, q0) = theta for turns below pi (1e-12)."""
+    from knitfem.beam.rotation import spatial_turn
+    rng = np.random.default_rng(3)
+    q0 = Rotation.random(20, random_state=4).as_quat(scalar_first=True)
+    theta = rng.normal(size=(20, 3))
+    theta *= (rng.uniform(0.0, 3.0, size=20) / np.linalg.norm(theta, axis=1))[:, None]
+    assert np.abs(spatial_turn(rotate_spatially(q0, theta), q0) - theta).max() <= 1e-12

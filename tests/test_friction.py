@@ -240,6 +240,20 @@ def test_coulomb_excess_of_lagged_friction(slide, now, expected):
         expected * (1.0 - lost) + lost, abs=1e-9)
 
 
+def _swatch_touching():
+    """A 3 x 3 swatch (alpha 0.05) after two friction rounds at lam 0.3: the
+    yarns pressed onto their crossings, friction anchored."""
+    from knitfem.scenes import fabric_relax
+    from knitfem.scenes.fabric import FabricScene, Homotopy, build
+    scene = FabricScene(3, 3, alpha=0.05)
+    model, _, _ = build(scene)
+    Homotopy(model, scene.alpha).apply(0.3)
+    state = model.initial_state()
+    for _ in range(2):
+        state = fabric_relax._round(model, state, 0.3, 1e-10, 300)[0].state
+    return model, state
+
+
 def test_friction_hessian_follows_the_frames_turned_since_the_anchors():
     """The friction's rotation vectors theta are measured from the anchors'
     frames; the unknowns are spatial increments d (q -> exp(d) q), so every
@@ -252,14 +266,7 @@ def test_friction_hessian_follows_the_frames_turned_since_the_anchors():
     left out is |g| |theta| / 12)."""
     from knitfem.beam.assembly import block_matrix
     from knitfem.contact.friction import friction_forces
-    from knitfem.scenes import fabric_relax
-    from knitfem.scenes.fabric import FabricScene, Homotopy, build
-    scene = FabricScene(3, 3, alpha=0.05)
-    model, _, _ = build(scene)
-    Homotopy(model, scene.alpha).apply(0.3)
-    state = model.initial_state()
-    for _ in range(2):
-        state = fabric_relax._round(model, state, 0.3, 1e-10, 300)[0].state
+    model, state = _swatch_touching()
     contact = model.contact_model
     contact.anchor_friction(state.x, state.q)
     assert len(contact.anchors.ends) >= 5
@@ -296,15 +303,10 @@ def test_carried_friction_is_a_balanced_force_system_at_its_anchors():
     scale)."""
     from knitfem.beam.assembly import block_vector
     from knitfem.scenes import fabric_relax
-    from knitfem.scenes.fabric import FabricScene, Homotopy, build
-    scene = FabricScene(3, 3, alpha=0.05)
-    model, _, _ = build(scene)
-    Homotopy(model, scene.alpha).apply(0.3)
-    state = model.initial_state()
-    for _ in range(2):
-        state = fabric_relax._round(model, state, 0.3, 1e-10, 300)[0].state
+    from knitfem.scenes.fabric import Homotopy
+    model, state = _swatch_touching()
     contact = model.contact_model
-    Homotopy(model, scene.alpha).apply(0.4)         # slips that build up friction
+    Homotopy(model, 0.05).apply(0.4)                # slips that build up friction
     state = fabric_relax._round(model, state, 0.4, 1e-10, 30)[0].state
     contact.anchor_friction(state.x, state.q)        # carried over, at the state itself
     dofs, grads, _, _ = contact.blocks(state.x, state.q, False)[1][-1]

@@ -189,6 +189,12 @@ def rotate_spatially(q, theta):
     return qn / np.linalg.norm(qn, axis=-1, keepdims=True)
 
 
+def spatial_turn(q, q0):
+    """Spatial rotation vectors (n, 3) taking the frames q0 to q (n, 4): the
+    inverse of :func:`rotate_spatially`, q = exp(hat(theta)) q0."""
+    return rotation_vector(quat_multiply(q, quat_conjugate(q0)))
+
+
 def rotation_vector(q):
     """Rotation vectors (n, 3), |theta| <= pi, of unit quaternions (n, 4) (the
     inverse of :func:`quat_exp`, written out for the same reason)."""

@@ -20,7 +20,7 @@ import numpy as np
 from ..contact import PenaltyLaw, SegmentContact, carry_slip, friction_forces
 from ..contact.friction import coulomb_excess
 from .assembly import DOFS_PER_NODE, block_matrix, block_vector
-from .rotation import quat_conjugate, quat_multiply, rotation_vector
+from .rotation import spatial_turn
 
 
 class BeamContact:
@@ -70,7 +70,7 @@ class BeamContact:
     def _turns(self, q):
         """Rotation vectors (n_nodes, 3) of the frames since the friction
         anchors were set (spatial), and at the segment ends (n_seg, 2, 3)."""
-        theta = rotation_vector(quat_multiply(q, quat_conjugate(self.anchor_q)))
+        theta = spatial_turn(q, self.anchor_q)
         return theta, theta[self.nodes]
 
     def friction_state(self):

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..beam.energy import EnergyProblem
-from ..beam.rotation import quat_conjugate, quat_multiply, rotation_vector
+from ..beam.rotation import spatial_turn
 from ..solve.minimize import RelaxationError, minimize
 from ..solve.stability import inertia, lowest_scaled_eigenvalue
 
@@ -84,9 +84,9 @@ class FabricEquilibrium:
     lowest_eigenvalue: float = float("nan")   # of the diagonally scaled tangent
     # the lagged friction reached its fixed point: the last round (re-anchored
     # at the state before it) moved no node (nor turned a yarn's surface) more
-    # than ``creep``; False when the
-    # final increment ended on its round budget instead (the answer is then an
-    # equilibrium for the last round's anchors, and another round would move it)
+    # than ``creep``; False when the final increment ended on its round budget
+    # instead (the answer is then an equilibrium for the last round's anchors,
+    # and another round would move it)
     friction_settled: bool = None             # None: unknown (failed, or an older checkpoint)
     last_round_move: float = float("nan")     # length
 
@@ -137,6 +137,12 @@ class Partial:
     ends: tuple = ()             # the rounds' final residuals (the extra rounds' test)
 
 
+def _smallest_radius(model):
+    """The thinnest yarn's radius (length), None if no rod has a finite one."""
+    radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
+    return min(radii) if radii else None
+
+
 def _contracting(ends):
     """The lagged friction's rounds still converge: each of the last two ended
     with at most half the residual of the one before."""
@@ -164,8 +170,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         return None, reason, Increment(lam, total, np.nan, np.nan, gap,
                                        before + time.perf_counter() - t, False)
     ends = list(start.ends) if start is not None else []
-    radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
-    arm = min(radii) if radii else 0.0
+    arm = _smallest_radius(model) or 0.0
     for k in range(first, max_rounds + extra_rounds):
         if k >= max_rounds and not _contracting(ends):
             break
@@ -179,8 +184,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         gap = min(gap, g)
         # a round that only turns frames has not settled either: turns count
         # as the move of a point on the yarn's surface
-        turned = np.linalg.norm(rotation_vector(quat_multiply(result.state.q,
-                                                               quat_conjugate(state.q))), axis=1)
+        turned = np.linalg.norm(spatial_turn(result.state.q, state.q), axis=1)
         moved = max(float(np.max(np.abs(result.state.x - state.x))),
                     arm * float(np.max(turned, initial=0.0)))
         state = result.state
@@ -224,8 +228,8 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     """
     state = model.initial_state() if state is None else state
     if creep is None:
-        radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
-        creep = 1e-3 * min(radii) if radii else 1e-6 * model.length_scale()
+        radius = _smallest_radius(model)
+        creep = 1e-3 * radius if radius is not None else 1e-6 * model.length_scale()
     increments = list(increments)
     lam = float(lam)
     contact = model.contact_model
