@@ -25,7 +25,9 @@ class ContactReport:
     """After a solve: candidate and active pairs, the smallest gap (negative =
     penetration), the largest penetration as a fraction of the summed radii,
     the total normal force; per segment the smallest gap, capped at the
-    law's reach g0 (>= g0: no contact)."""
+    law's reach g0 (>= g0: no contact); the normal force taken back at the
+    maxima of the distance where two contacts along one master yarn overlap
+    (already subtracted from the total, see :mod:`knitfem.contact.narrow`)."""
     candidates: int
     active_pairs: int
     min_gap: float
@@ -33,6 +35,7 @@ class ContactReport:
     max_penetration_ratio: float
     total_normal_force: float
     segment_gap: np.ndarray = field(default=None, repr=False)
+    overlap_force: float = 0.0
 
 
 def slave_rank(rod, length=None):
@@ -95,7 +98,7 @@ class SegmentContact:
         R = 2.0 * self.radius.max()
         return energy, active, ends, grads, hess, ContactReport(
             int(pairs.shape[0]), int(active.shape[0]), float(stats[0]), penetration,
-            penetration / R, float(stats[2]), np.minimum(seg_gap, self.law.g0))
+            penetration / R, float(stats[2]), np.minimum(seg_gap, self.law.g0), float(stats[3]))
 
     def friction_anchors(self, x0, x1, mu, length=None, reference=None):
         """Friction anchors (:func:`knitfem.contact.friction.anchors`) of every

@@ -99,11 +99,9 @@ def _closest(px, py, pz, C):
 
 
 @njit(cache=True)
-def project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2):
-    """Closest point of the master curve to p: t* in [0, 1], whether the
-    unconstrained minimum lies beyond an end, and |u|; leaves u = p - c(t*),
-    c1 = c'(t*), c2 = c''(t*) and the shape functions at t* in the buffers."""
-    C = np.empty((4, 3))
+def power_basis(M, has_prev, has_next, C):
+    """Fill C (4, 3) with the power-basis coefficients of the master curve
+    with points M (4, 3) (ghost points at a yarn end)."""
     P0, P1, P2, P3 = (M[0], M[1], M[2], M[3]) if has_prev and has_next else \
         (M[0] if has_prev else 2.0 * M[1] - M[2], M[1], M[2],
          M[3] if has_next else 2.0 * M[2] - M[1])
@@ -112,15 +110,115 @@ def project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2):
         C[1, j] = 0.5 * (P2[j] - P0[j])
         C[2, j] = 0.5 * (2.0 * P0[j] - 5.0 * P1[j] + 4.0 * P2[j] - P3[j])
         C[3, j] = 0.5 * (-P0[j] + 3.0 * P1[j] - 3.0 * P2[j] + P3[j])
-    t, clamped, d = _closest(p[0], p[1], p[2], C)
+
+
+@njit(cache=True)
+def evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2):
+    """|u| at the master parameter t; leaves u = p - c(t), c1 = c'(t),
+    c2 = c''(t) and the shape functions at t in the buffers."""
     shape(t, has_prev, has_next, N, dN, ddN)
     combine(M, N, u)
     combine(M, dN, c1)
     combine(M, ddN, c2)
     for j in range(3):
         u[j] = p[j] - u[j]
-    d = np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    return np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+
+
+@njit(cache=True)
+def project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2):
+    """Closest point of the master curve to p: t* in [0, 1], whether the
+    unconstrained minimum lies beyond an end, and |u|; leaves u = p - c(t*),
+    c1 = c'(t*), c2 = c''(t*) and the shape functions at t* in the buffers."""
+    C = np.empty((4, 3))
+    power_basis(M, has_prev, has_next, C)
+    t, clamped, d = _closest(p[0], p[1], p[2], C)
+    d = evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
     return t, clamped, d
+
+
+@njit(cache=True, inline="always")
+def _value(D, k, t):
+    """Row k of D (a polynomial of degree 5 - k, power basis) at t."""
+    v = 0.0
+    for i in range(5 - k, -1, -1):
+        v = v * t + D[k, i]
+    return v
+
+
+@njit(cache=True)
+def _bracketed(D, k, lo, hi, vlo):
+    """The root of row k of D on [lo, hi], where it changes sign once (vlo
+    its value at lo; 0 counts as positive): Newton kept inside the shrinking
+    bracket, bisection where it would leave it."""
+    t = 0.5 * (lo + hi)
+    for _ in range(200):
+        v = _value(D, k, t)
+        if v == 0.0:
+            return t
+        if (v < 0.0) == (vlo < 0.0):
+            lo = t
+        else:
+            hi = t
+        dv = _value(D, k + 1, t)
+        new = t - v / dv if dv != 0.0 else 0.5 * (lo + hi)
+        if not lo < new < hi:
+            new = 0.5 * (lo + hi)
+        if new == t or hi - lo <= 1e-15:
+            return new
+        t = new
+    return t
+
+
+@njit(cache=True)
+def critical_points(p, C, g_start, D, roots, kinds):
+    """Every critical point of the distance from p to the master curve C
+    (4, 3) inside (0, 1]: the roots of F'(t) = (c(t) - p).c'(t), a quintic,
+    each isolated exactly between the roots of its derivative (recursively
+    down to the linear fourth derivative), so no pair of a minimum and a
+    maximum, however close, is missed.  Fills roots and kinds (+1 a minimum,
+    -1 a maximum of the distance) in order; returns their count, F'(0) and
+    F'(1).  g_start, if finite, is used as F'(0): a point where two master
+    curves join is given the same sign on both sides, so a critical point
+    there is counted once.  D (6, 6), roots and kinds (6,) are scratch."""
+    for i in range(6):
+        for k in range(6):
+            D[k, i] = 0.0
+    for j in range(3):
+        d0 = C[0, j] - p[j]
+        c1, c2, c3 = C[1, j], C[2, j], C[3, j]
+        D[0, 0] += d0 * c1
+        D[0, 1] += 2.0 * d0 * c2 + c1 * c1
+        D[0, 2] += 3.0 * (d0 * c3 + c1 * c2)
+        D[0, 3] += 4.0 * c1 * c3 + 2.0 * c2 * c2
+        D[0, 4] += 5.0 * c2 * c3
+        D[0, 5] += 3.0 * c3 * c3
+    for k in range(1, 6):
+        for i in range(6 - k):
+            D[k, i] = (i + 1) * D[k - 1, i + 1]
+    g0 = D[0, 0] if np.isnan(g_start) else g_start
+    g1 = _value(D, 0, 1.0)
+    # the linear fourth derivative's root, then each row's roots between those
+    # of the row below (on each piece the row is monotone: one root at most)
+    count = 0
+    if D[4, 1] != 0.0:
+        r = -D[4, 0] / D[4, 1]
+        if 0.0 < r < 1.0:
+            roots[0], count = r, 1
+    for k in range(3, -1, -1):
+        found = 0
+        a, va = 0.0, (g0 if k == 0 else D[k, 0])
+        for i in range(count + 1):
+            b = roots[i] if i < count else 1.0
+            vb = (g1 if k == 0 else _value(D, k, 1.0)) if i == count else _value(D, k, b)
+            if (va < 0.0) != (vb < 0.0):
+                # in place: roots[found], found <= i, was read already
+                kinds[found] = 1 if va < 0.0 else -1
+                roots[found] = _bracketed(D, k, a, b, va)
+                found += 1
+            a, va = b, vb
+        count = found
+    return count, g0, g1
 
 
 @njit(cache=True)

@@ -15,26 +15,44 @@ tangent, so the distance to the master yarn has a continuous gradient
 everywhere, also where a slave point passes from one master segment to the
 next on the concave side of a kink of the polyline: the minimum of two chord
 distances would make the force jump there and Newton linear.  With
-u = p - c(t*), t* the closest point (local Newton from the chord projection),
+u = p - c(t*), t* a critical point of the distance (see below),
 
     g = |u| - (r_a + r_b),   energy  sum_gauss  w l_A phi(g).
 
 A is the slave of the pair.  A's candidate masters, in segment order, form
-stretches of master yarn (runs of neighbouring segments); in each stretch B
-is the segment of smallest gap from p, so every stretch within reach pushes
-on p once (a yarn squeezed between two others feels both) and the energy is
-continuous in the positions.  Slaves are chosen per yarn (the yarn
-with the finer elements, as the non-mortar side of a mortar method), so each
-contact is counted once.  Crossings are resolved by the Gauss points near
-them: ``per_diameter`` points per yarn diameter along every slave segment.
+stretches of master yarn (runs of neighbouring segments).  Along a stretch
+the distance |p - c| may have several local minima: where the master yarn
+bends around p more tightly than the contact distance (a loop head cradling
+the yarn through it, tightened by the pre-stretch) or passes p twice.  Every
+minimum pushes, and every maximum between two of them is *subtracted*:
+
+    E_p = sum_minima phi(g) - sum_maxima phi(g)
+
+(half the total variation of phi(g(s)) along the stretch).  Taking the
+nearest minimum alone made the energy the larger of two penalties where two
+minima tie: a kink on which Newton 2-cycled (a 5 x 5 swatch at alpha 0.2
+stalled on one such Gauss point).  With the maxima subtracted the energy is
+continuous and so is its gradient, also where a minimum is born or dies with
+a maximum (they cancel there; the force changes like the square root of the
+distance to that point); far apart, the maximum is out of reach and both
+contacts push whole.  The price: near such a merge a maximum within reach
+pulls the point toward itself (the overlap of two contacts is counted once);
+the force it takes back is reported (``ContactReport.overlap_force``).  The
+ends of a stretch count as minima where the distance falls toward them;
+every critical point is found exactly
+(:func:`knitfem.contact.master.critical_points`).  Slaves are chosen per yarn
+(the yarn with the finer elements, as the non-mortar side of a mortar
+method), so each contact is counted once.  Crossings are resolved by the
+Gauss points near them: ``per_diameter`` points per yarn diameter along
+every slave segment.
 
 Derivatives in the 6 points z = (a0, a1, M0..M3), s = ((1-xi), xi, -N(t*)),
-F = |u|^2 / 2 (the envelope theorem for the projection):
+F = |u|^2 / 2 (the envelope theorem, at minima and maxima alike):
 
     grad F = S^T u,   hess F = S^T S - b b^T / (c'.c' - u.c''),
     b = S^T c' + N'(t*) (x) u on the master points
 
-(drop the b term where t* is clamped to an end), chained through d = sqrt(2F)
+(drop the b term at the end of a stretch), chained through d = sqrt(2F)
 to phi(g): the tangent is exact, so Newton stays quadratic with contact.
 
 Normal damping (optional, for quasi-static or dynamic increments): a line load
@@ -53,23 +71,28 @@ import numpy as np
 from numba import njit
 
 from .law import penalty
-from .master import (bulge, chord_distance, coefficients, gather, project, search_distance,
-                     segment_distance)
+from .master import bulge, evaluate, gather
+from .search import MAX_ORDER, candidates_in_reach, critical_hits, gauss_points
 
-MAX_ORDER = 48
 SLOTS = 6                    # slave a0, a1; master M0..M3
 
 
 @njit(cache=True)
-def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, hess, stats,
-                 buf, g_prev, c_dt):
+def _gauss_point(xi, a0, a1, M, has_prev, has_next, t, kind, R, W, k, g0, tangent, grad, hess,
+                 stats, buf, g_prev, c_dt):
     """Energy of the slave Gauss point at xi on (a0, a1) against the master
-    curve M, weight W; adds its gradient / tangent into the pair's 18 slots.
-    c_dt > 0: normal damping c/dt against the gap g_prev of the increment's start."""
+    curve M at its critical point t of the distance (``kind`` +1 a minimum,
+    -1 a maximum: counted negative, 2 a minimum at the end of a run of
+    master curves: t fixed), weight W; adds its gradient / tangent into the
+    pair's 18 slots.  c_dt > 0: normal damping c/dt against the gap g_prev
+    of the increment's start."""
     N, dN, ddN, u, c1, c2, p, s, b, dF = buf
     for j in range(3):
         p[j] = (1.0 - xi) * a0[j] + xi * a1[j]
-    t, clamped, d = project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2)
+    d = evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
+    clamped = kind == 2
+    if kind < 0:
+        W = -W
     g = d - R
     if g >= g0 or d < 1e-14 * R:
         return 0.0
@@ -79,7 +102,10 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, 
         slope = -1.0 / g0 if g >= 0.0 else 0.0
         dphi += c_dt * ramp * (g - g_prev)
         ddphi += c_dt * (ramp + slope * (g - g_prev))
-    stats[1] += 1.0
+    if kind > 0:
+        stats[1] += 1.0
+    else:                                          # taken back where two contacts overlap
+        stats[3] += W * dphi
     stats[2] += -W * dphi                          # normal force carried
     s[0], s[1] = 1.0 - xi, xi
     for m in range(4):
@@ -93,6 +119,9 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, 
         return W * phi
     Ftt = (c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]) \
         - (u[0] * c2[0] + u[1] * c2[1] + u[2] * c2[2])
+    # where a minimum and a maximum merge F'' -> 0 and t* moves without bound:
+    # the b b^T term is skipped there only at round-off level
+    clamped = clamped or abs(Ftt) <= 1e-13 * (c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2])
     for a in range(SLOTS):
         for j in range(3):
             b[3 * a + j] = s[a] * c1[j] + (dN[a - 2] * u[j] if a >= 2 else 0.0)
@@ -107,123 +136,42 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, R, W, k, g0, tangent, grad, 
 
 
 @njit(cache=True)
-def _points(length, diameter, per_diameter, least):
-    """Gauss order for a segment of this length: per_diameter points per diameter."""
-    n = int(np.ceil(per_diameter * length / diameter))
-    return min(max(n, least), MAX_ORDER)
-
-
-@njit(cache=True)
-def _masters_of_slaves(pairs, rank, nseg):
-    """CSR of the masters of every slave segment: the slave of a pair is the
-    segment of lower ``rank`` (ranks are per yarn, so one yarn is the slave of
-    another everywhere and no contact is counted from both sides; within one
-    yarn the lower index)."""
-    m = pairs.shape[0]
-    slave_first = np.empty(m, np.bool_)
-    count = np.zeros(nseg + 1, np.int64)
-    for n in range(m):
-        i, j = pairs[n, 0], pairs[n, 1]
-        slave_first[n] = rank[i] < rank[j] or (rank[i] == rank[j] and i < j)
-        count[(i if slave_first[n] else j) + 1] += 1
-    start = np.cumsum(count)
-    fill = start[:-1].copy()
-    master = np.empty(m, np.int64)
-    index = np.empty(m, np.int64)
-    for n in range(m):
-        a, b = (pairs[n, 0], pairs[n, 1]) if slave_first[n] else (pairs[n, 1], pairs[n, 0])
-        master[fill[a]], index[fill[a]] = b, n
-        fill[a] += 1
-    # each slave's masters in segment order, so that neighbouring master segments
-    # (one stretch of master yarn) follow each other (insertion sort: few per slave)
-    for a in range(nseg):
-        for t in range(start[a] + 1, start[a + 1]):
-            b, n = master[t], index[t]
-            u = t - 1
-            while u >= start[a] and master[u] > b:
-                master[u + 1], index[u + 1] = master[u], index[u]
-                u -= 1
-            master[u + 1], index[u + 1] = b, n
-    return start, master, index
+def _follow(p, M, has_prev, has_next, t, kind, buf):
+    """|p - c| at the critical point near t (Newton on F' = 0 from t; t itself
+    for an end minimum): the same contact at the start of the increment."""
+    N, dN, ddN, u, c1, c2 = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
+    d = evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
+    for _ in range(30 if kind != 2 else 0):
+        g = -(u[0] * c1[0] + u[1] * c1[1] + u[2] * c1[2])
+        h = (c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]) \
+            - (u[0] * c2[0] + u[1] * c2[1] + u[2] * c2[2])
+        new = min(max(t - g / h, 0.0), 1.0) if h != 0.0 else t
+        if abs(new - t) <= 1e-15:
+            break
+        t = new
+        d = evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
+    return d
 
 
 @njit(cache=True)
 def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, per_diameter,
                least, k, g0, tangent, x0p, x1p, c_dt, record):
-    """Slave Gauss points against their master curves.  A slave Gauss point
-    interacts with every stretch of master yarn within reach (a run of
-    neighbouring candidate master segments), with the segment of smallest gap
-    in each stretch: a yarn squeezed between two others feels both, and the
-    energy stays smooth where two stretches are equally near (taking only the
-    nearer one would make it the maximum of two penalties: a kink that stalls
-    minimisers)."""
+    """Slave Gauss points against their master curves: every critical point
+    of the distance along every stretch of master yarn within reach (minima
+    push, maxima are subtracted: see the module docstring)."""
     nseg = x0.shape[0]
-    stats = np.array([np.inf, 0.0, 0.0])            # min gap, active points, total force
+    stats = np.array([np.inf, 0.0, 0.0, 0.0])       # min gap, active points, net force, overlap
     seg_gap = np.full(nseg, np.inf)                 # smallest gap seen by each segment
-    start, master, index = _masters_of_slaves(pairs, rank, nseg)
-    C = coefficients(x0, x1, prev, nxt)
-    # most candidates are out of reach: one segment-segment distance rules them out
-    near = np.empty(master.shape[0], np.bool_)
-    for A in range(nseg):
-        for t in range(start[A], start[A + 1]):
-            B = master[t]
-            gap = segment_distance(x0[A], x1[A], x0[B], x1[B]) - radius[A] - radius[B]
-            near[t] = gap - bulge[B] < g0
-            if not near[t]:
-                seg_gap[A] = min(seg_gap[A], gap)
-                seg_gap[B] = min(seg_gap[B], gap)
-                stats[0] = min(stats[0], gap)
+    start, master, index, near = candidates_in_reach(x0, x1, bulge, radius, pairs, rank, g0,
+                                                     stats, seg_gap)
     M = np.empty((4, 3))
     buf = (np.empty(4), np.empty(4), np.empty(4), np.empty(3), np.empty(3), np.empty(3),
            np.empty(3), np.empty(SLOTS), np.empty(3 * SLOTS), np.empty(3 * SLOTS))
     N, dN, ddN, u, c1, c2, p = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
-    # pass 1: the master of every slave Gauss point in every stretch within reach
-    capacity = 0
-    for A in range(nseg):
-        capacity += _points(length[A], 2.0 * radius[A], per_diameter, least) * \
-            (start[A + 1] - start[A])
-    hits_A = np.empty(capacity, np.int64)
-    hits_q = np.empty(capacity, np.int64)
-    hits_t = np.empty(capacity, np.int64)
-    nhits = 0
-    for A in range(nseg):
-        if start[A] == start[A + 1]:
-            continue
-        nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
-        a0, a1 = x0[A], x1[A]
-        for q in range(nq):
-            xi = XI[nq, q]
-            for j in range(3):
-                p[j] = (1.0 - xi) * a0[j] + xi * a1[j]
-            best, best_gap = -1, np.inf
-            last = -2
-            for t in range(start[A], start[A + 1] + 1):
-                B = master[t] if t < start[A + 1] else -1
-                if best >= 0 and (t == start[A + 1] or B != nxt[last]):
-                    # the stretch ended: its nearest segment carries the contact
-                    if best_gap < stats[0]:
-                        stats[0] = best_gap
-                    seg_gap[A] = min(seg_gap[A], best_gap)
-                    seg_gap[master[best]] = min(seg_gap[master[best]], best_gap)
-                    if best_gap < g0:
-                        hits_A[nhits], hits_q[nhits], hits_t[nhits] = A, q, best
-                        nhits += 1
-                    best, best_gap = -1, np.inf
-                if t == start[A + 1]:
-                    break
-                last = B
-                if not near[t]:
-                    continue
-                R = radius[A] + radius[B]
-                # the curve lies within ``bulge`` of its chord: far masters cost one distance
-                gap = chord_distance(p[0], p[1], p[2], x0[B], x1[B]) - R
-                if gap - bulge[B] < g0:
-                    # along one stretch the master curves join with a continuous
-                    # tangent, so the nearest piece (its foot inside or at an end)
-                    # gives the distance to the stretch: continuous in p
-                    gap = search_distance(p[0], p[1], p[2], C[B])[0] - R
-                if gap < best_gap:
-                    best, best_gap = t, gap
+    # pass 1: every critical point of the distance to every stretch within reach
+    hits_A, hits_q, hits_t, hits_s, hits_k, nhits = critical_hits(
+        x0, x1, prev, nxt, bulge, radius, length, start, master, near, XI, per_diameter, least,
+        g0, stats, seg_gap)
     # compact numbering of the (slave, master) pairs that carry force
     slot = np.full(pairs.shape[0], -1, np.int64)
     active = 0
@@ -250,7 +198,7 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
     for h in range(nhits):
         A, q, t = hits_A[h], hits_q[h], hits_t[h]
         B, m = master[t], slot[index[t]]
-        nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
+        nq = gauss_points(length[A], 2.0 * radius[A], per_diameter, least)
         xi = XI[nq, q]
         R = radius[A] + radius[B]
         g_prev = 0.0
@@ -258,29 +206,39 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
             has_prev, has_next = gather(B, x0p, x1p, prev, nxt, Mp)
             for j in range(3):
                 p[j] = (1.0 - xi) * x0p[A, j] + xi * x1p[A, j]
-            g_prev = project(p, Mp, has_prev, has_next, N, dN, ddN, u, c1, c2)[2] - R
+            g_prev = _follow(p, Mp, has_prev, has_next, hits_s[h], hits_k[h], buf) - R
         has_prev, has_next = gather(B, x0, x1, prev, nxt, M)
-        energy += _gauss_point(xi, x0[A], x1[A], M, has_prev, has_next, R,
-                               WTS[nq, q] * length[A], k, g0, tangent, grads[m],
+        energy += _gauss_point(xi, x0[A], x1[A], M, has_prev, has_next, hits_s[h], hits_k[h],
+                               R, WTS[nq, q] * length[A], k, g0, tangent, grads[m],
                                hess[m] if tangent else hess[0], stats, buf, g_prev, c_dt)
-    # optionally, every active Gauss point: slave, xi, weight, master, t*, normal, line load
-    n_rec = nhits if record else 0
+    # optionally, every Gauss point's contact at a minimum of the distance: slave,
+    # xi, weight, master, t*, normal, line load (the maxima, subtracted where
+    # two contacts overlap, carry no friction of their own)
+    n_rec = 0
+    for h in range(nhits if record else 0):
+        if hits_k[h] > 0:
+            n_rec += 1
     rec_i = np.empty((n_rec, 3), np.int64)
     rec_f = np.empty((n_rec, 7))
-    for h in range(n_rec):
+    r = 0
+    for h in range(nhits if record else 0):
+        if hits_k[h] < 0:
+            continue
         A, q, t = hits_A[h], hits_q[h], hits_t[h]
         B = master[t]
-        nq = _points(length[A], 2.0 * radius[A], per_diameter, least)
+        nq = gauss_points(length[A], 2.0 * radius[A], per_diameter, least)
         xi = XI[nq, q]
         for j in range(3):
             p[j] = (1.0 - xi) * x0[A, j] + xi * x1[A, j]
         has_prev, has_next = gather(B, x0, x1, prev, nxt, M)
-        tq, _, d = project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2)
-        rec_i[h, 0], rec_i[h, 1], rec_i[h, 2] = A, B, q
-        rec_f[h, 0], rec_f[h, 1], rec_f[h, 2] = xi, WTS[nq, q] * length[A], tq
+        tq = hits_s[h]
+        d = evaluate(p, M, has_prev, has_next, tq, N, dN, ddN, u, c1, c2)
+        rec_i[r, 0], rec_i[r, 1], rec_i[r, 2] = A, B, q
+        rec_f[r, 0], rec_f[r, 1], rec_f[r, 2] = xi, WTS[nq, q] * length[A], tq
         for j in range(3):
-            rec_f[h, 3 + j] = u[j] / d if d > 0.0 else 0.0
-        rec_f[h, 6] = -penalty(d - radius[A] - radius[B], k, g0)[1]
+            rec_f[r, 3 + j] = u[j] / d if d > 0.0 else 0.0
+        rec_f[r, 6] = -penalty(d - radius[A] - radius[B], k, g0)[1]
+        r += 1
     return energy, used, ends, grads, hess, stats, seg_gap, rec_i, rec_f
 
 

@@ -40,7 +40,8 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
         data.update(partial_x=partial.state.x, partial_q=partial.state.q,
                     partial_numbers=np.array([partial.target, partial.rounds, partial.iterations,
                                               partial.min_gap, partial.seconds]),
-                    partial_ends=np.array(partial.ends, dtype=float))
+                    partial_ends=np.array(partial.ends, dtype=float),
+                    partial_moves=np.array(partial.moves, dtype=float))
         anchors.append(("partial_", partial.friction))
     for prefix, friction in anchors:
         if friction is not None and friction[0] is not None:
@@ -88,7 +89,9 @@ def load_checkpoint(path, scene, model):
         partial = Partial(float(target), BeamState(data["partial_x"], data["partial_q"]),
                           int(rounds), int(iterations), float(gap), float(seconds),
                           friction("partial_"),
-                          ends=tuple(data["partial_ends"]) if "partial_ends" in data.files else ())
+                          ends=tuple(data["partial_ends"]) if "partial_ends" in data.files else (),
+                          moves=tuple(data["partial_moves"]) if "partial_moves" in data.files
+                          else ())
     return (BeamState(data["x"], data["q"]), float(data["lam"]), float(data["dlam"]),
             increments, partial)
 
