@@ -162,3 +162,21 @@ def test_tangent_holds_with_two_minima_and_a_maximum_in_reach(rng):
         assert abs((ep - em) / (2 * step) - np.sum(g * v)) < 1e-6 * abs(np.sum(g * v))
         Kv = (K @ v.ravel()).reshape(X.shape)
         assert np.linalg.norm((gp - gm) / (2 * step) - Kv) < 1e-6 * np.linalg.norm(Kv)
+
+
+def test_the_force_taken_back_at_maxima_is_reported():
+    """ContactReport.overlap_force: > 0 inside the parabolic bend (a maximum
+    of the distance within reach), 0 between the hairpin's legs (the bend out
+    of reach); the net normal force is what the minima push minus it."""
+    from knitfem.contact import SegmentContact
+    law = PenaltyLaw(1000.0, 0.04)
+    reports = []
+    for points, xy in ((_parabola(), (0.004, 0.78)), (_hairpin(0.79), (0.0, 1.5))):
+        x0, x1, rod, s_mid = _scene(points, xy)
+        contact = SegmentContact(law, np.full(len(rod), R), rod, s_mid)
+        # the finer yarn (the straight one, 0.05 per segment) is the slave
+        length = np.linalg.norm(x1 - x0, axis=1)
+        reports.append(contact.evaluate(x0, x1, tangent=False, length=length)[-1])
+    inside, legs = reports
+    assert inside.overlap_force > 0 and inside.total_normal_force > 0
+    assert legs.overlap_force == 0.0 and legs.total_normal_force > 0

@@ -95,6 +95,7 @@ def test_small_swatch_relaxes_to_a_converged_stable_equilibrium(relaxed_3x4):
     move = summary["last_round_move_over_r"]
     assert move <= 1e-2 and summary["friction_settled"] is (move <= 1e-3)
     assert summary["reaction_over_force_scale"] <= 1e-4
+    assert 0.0 <= summary["contact_overlap_share"] < 1.0
     assert json.loads((out / "curl_3x4.json").read_text())["residual"] == summary["residual"]
 
 

@@ -180,6 +180,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         # the answer's own (the key above is the deepest along the path)
         "penetration_over_d": eq.penetration / (2.0 * scene.radius),
         "reaction_over_force_scale": eq.reaction, "coulomb_excess": eq.coulomb_excess,
+        "contact_overlap_share": eq.overlap_share,
         # False: the final increment ended on its round budget, the lagged
         # friction not at its fixed point (another round would move the answer
         # by about last_round_move)

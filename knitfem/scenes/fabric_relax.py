@@ -89,6 +89,9 @@ class FabricEquilibrium:
     # and another round would move it)
     friction_settled: bool = None             # None: unknown (failed, or an older checkpoint)
     last_round_move: float = float("nan")     # length
+    # the share of the contacts' push taken back at maxima of the distance, where
+    # two contacts along one master yarn overlap (see knitfem.contact.narrow)
+    overlap_share: float = 0.0
 
 
 def _gap_watch(model, sink):
@@ -312,7 +315,9 @@ def equilibrium(model, state, converged, increments):
     reaction = float(np.linalg.norm((f * model.residual_weights())[model.fixed]) / problem.ref)
     gaps = [inc.min_gap for inc in increments if inc.accepted and np.isfinite(inc.min_gap)]
     excess = contact.coulomb_excess(state.x, state.q) if contact is not None else 0.0
+    push = report.total_normal_force + report.overlap_force if report is not None else 0.0
     return FabricEquilibrium(state, bool(converged), residual, negative == 0, int(negative),
                              reaction, int(sum(inc.iterations for inc in increments)),
                              increments, max(0.0, -min(gaps, default=0.0)), excess,
-                             penetration, lowest_scaled_eigenvalue(H))
+                             penetration, lowest_scaled_eigenvalue(H),
+                             overlap_share=report.overlap_force / push if push > 0 else 0.0)
