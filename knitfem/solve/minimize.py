@@ -7,8 +7,10 @@ method on the energy (a Levenberg-Marquardt / trust-region hybrid):
     (H + mu D) dx = -g,     D = diag of the PSD model (Marquardt scaling),
 
 where H is the exact (symmetric) Hessian whenever H + mu D is positive
-definite and otherwise a positive semi-definite model of it (per-block
-projection, see :mod:`knitfem.solve.psd`); the step is capped by the
+definite for mu or one of up to three tenfold larger shifts (the shift
+that was needed is kept for the next iteration), and otherwise a positive
+semi-definite model of it (per-block projection, see
+:mod:`knitfem.solve.psd`); the step is capped by the
 problem's ``step_limit`` (no contact point moves far enough to tunnel
 through a yarn), then a backtracking line search on the energy (Armijo)
 accepts it.  mu shrinks after full steps and grows after cut or failed
@@ -40,6 +42,7 @@ from scipy import sparse
 from .factor import Cholesky, NotPositiveDefinite
 
 MU_MIN, MU_MAX = 1e-10, 1e8
+SHIFTS = 4                    # tries of the exact Hessian, mu x 10 each, before the PSD model
 
 
 class RelaxationError(RuntimeError):
@@ -82,7 +85,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
     x = x0
     E, g, H, Hp = problem.evaluate(x, True)
     history = []
-    exact_failed = 0
+    exact_failed, shift_last = 0, 0.0
     limit = getattr(problem, "step_limit", None)
     depth = getattr(problem, "depth", None)
     depth_limit = getattr(problem, "depth_limit", np.inf)
@@ -102,10 +105,20 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
         # the exact Hessian first (fast local convergence); after it failed,
         # try it again only every few iterations
         if exact_failed == 0 or it % 5 == 0:
-            try:
-                chol, used = _factor(H, D, mu), "exact"
-                exact_failed = 0
-            except NotPositiveDefinite:
+            # an indefinite Hessian shifted until positive definite keeps the
+            # coupling that the per-block PSD model throws away: on a 5 x 5
+            # swatch at alpha 0.2 the PSD steps crept (residual 0.15 -> 0.046
+            # in 180 full steps) where the shifted ones converged in 198
+            shift = max(mu, shift_last / 3.0)
+            for _ in range(SHIFTS):
+                try:
+                    chol, used = _factor(H, D, shift), "exact"
+                    exact_failed, shift_last = 0, (shift if shift > mu else 0.0)
+                    mu = shift
+                    break
+                except NotPositiveDefinite:
+                    shift = max(10.0 * shift, 1e-6)
+            if used is None:
                 exact_failed += 1
         model = None
         while used is None:
