@@ -100,10 +100,10 @@ class SegmentContact:
             int(pairs.shape[0]), int(active.shape[0]), float(stats[0]), penetration,
             penetration / R, float(stats[2]), np.minimum(seg_gap, self.law.g0), float(stats[3]))
 
-    def friction_anchors(self, x0, x1, mu, length=None, reference=None):
+    def friction_anchors(self, x0, x1, mu, length=None):
         """Friction anchors (:func:`knitfem.contact.friction.anchors`) of every
         Gauss point in contact at the segment ends x0, x1, slip measured from
-        ``reference`` = (x0, x1) (default: from x0, x1 themselves)."""
+        there (the lever arms need the distance of the same state)."""
         prev, nxt = neighbours(x0, x1, self.rod, self.s_mid, self._order)
         bulges = bulge(x0, x1, prev, nxt)
         pairs = candidate_pairs(x0, x1, self.radius, self.rod, self.s_mid, self.law.g0,
@@ -112,5 +112,4 @@ class SegmentContact:
             self.rank, self._ranked_by = slave_rank(self.rod, length), length
         points = pair_forces(x0, x1, self.radius, pairs, self.law, self.per_diameter, 4, False,
                              length, self.rank, None, 0.0, prev, nxt, bulges, record=True)[-1]
-        x0r, x1r = (x0, x1) if reference is None else reference
-        return anchors(points, x0r, x1r, prev, nxt, mu, self.radius)
+        return anchors(points, x0, x1, prev, nxt, mu, self.radius)
