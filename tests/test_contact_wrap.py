@@ -153,8 +153,8 @@ def test_tangent_holds_with_two_minima_and_a_maximum_in_reach(rng):
     assert hess.shape[0] >= 2
     K = np.zeros((X.size, X.size))
     dof = (3 * node[:, :, None] + np.arange(3)).reshape(-1, 18)
-    for k in range(len(dof)):
-        K[np.ix_(dof[k], dof[k])] += hess[k]
+    for k in range(len(dof)):     # np.add.at: a slot may repeat (a master at a yarn end)
+        np.add.at(K, (dof[k][:, None], dof[k][None, :]), hess[k])
     step = 1e-7
     for _ in range(3):
         v = rng.normal(size=X.shape)
@@ -180,3 +180,31 @@ def test_the_force_taken_back_at_maxima_is_reported():
     inside, legs = reports
     assert inside.overlap_force > 0 and inside.total_normal_force > 0
     assert legs.overlap_force == 0.0 and legs.total_normal_force > 0
+
+
+def test_friction_carries_each_minimum_its_own_slip():
+    """A slave Gauss point between the hairpin's legs touches both (two
+    anchors of one Gauss point); the legs slide 1e-4 along the slave yarn in
+    opposite senses: re-anchored with the slips carried over, each leg's
+    anchors hold that leg's slip (1e-8), not the other's (a key of the Gauss
+    point alone gave both legs one slip, of the wrong sign for one)."""
+    from knitfem.contact import SegmentContact, carry_slip
+    from knitfem.contact.friction import slips
+    law = PenaltyLaw(1000.0, 0.04)
+    x0, x1, rod, s_mid = _scene(_hairpin(0.79), (0.0, 1.5))
+    contact = SegmentContact(law, np.full(len(rod), R), rod, s_mid)
+    length = np.linalg.norm(x1 - x0, axis=1)
+    old = contact.friction_anchors(x0, x1, 0.3, length=length)
+    assert np.max(np.unique(old.key, return_counts=True)[1]) == 2
+    y0, y1 = x0.copy(), x1.copy()
+    for y in (y0, y1):
+        y[(rod == 0) & (y[:, 0] < 0), 2] += 1e-4
+        y[(rod == 0) & (y[:, 0] > 0), 2] -= 1e-4
+    before = slips(old, y0, y1)[:, 2]
+    new = contact.friction_anchors(y0, y1, 0.3, length=length)
+    held = slips(carry_slip(new, old, y0, y1, eps=1.0), y0, y1)[:, 2]
+    for was, now in ((old.normal[:, 0] > 0, new.normal[:, 0] > 0),
+                     (old.normal[:, 0] < 0, new.normal[:, 0] < 0)):
+        assert now.sum() == was.sum() > 0
+        assert np.allclose(np.sort(held[now]), np.sort(before[was]), rtol=0, atol=1e-8)
+        assert abs(np.mean(before[was])) > 8e-5

@@ -130,12 +130,32 @@ def slips(anchors, x0, x1, theta=None):
     return u
 
 
-def _match(keys, wanted):
-    """For each of ``wanted``, its index in ``keys`` (non-empty) and whether it
-    is there (the slave Gauss points two anchor sets share)."""
-    order = np.argsort(keys)
-    pos = np.minimum(np.searchsorted(keys[order], wanted), len(order) - 1)
-    return order[pos], keys[order][pos] == wanted
+def _master_points(anchors, x0, x1):
+    """Where each anchor's master curve point sits at the segment ends x0, x1 (k, 3)."""
+    return -np.einsum("ka,kaj->kj", anchors.s[:, 2:], _slot_points(anchors.ends[:, 2:], x0, x1))
+
+
+def _match(old, new, x0, x1):
+    """For each anchor of ``new``, the index of the ``old`` one (non-empty) for
+    the same contact and whether there is one: the same slave Gauss point
+    and, where that point touches more than one master stretch or the same
+    stretch at several minima of the distance, the old anchor whose master
+    point lies nearest to the new one's at x0, x1 (a key of the Gauss point
+    alone gave two legs of a hairpin the slip of one)."""
+    order = np.argsort(old.key, kind="stable")
+    keys = old.key[order]
+    lo = np.searchsorted(keys, new.key, "left")
+    hi = np.searchsorted(keys, new.key, "right")
+    found = hi > lo
+    index = order[np.minimum(lo, len(order) - 1)]
+    several = np.flatnonzero(found & (hi - lo > 1))
+    if len(several):
+        old_at, new_at = _master_points(old, x0, x1), _master_points(new, x0, x1)
+        for i in several:
+            candidates = order[lo[i]:hi[i]]
+            near = np.argmin(np.linalg.norm(old_at[candidates] - new_at[i], axis=1))
+            index[i] = candidates[near]
+    return index, found
 
 
 def carry_slip(new, old, x0, x1, eps, theta=None):
@@ -148,7 +168,7 @@ def carry_slip(new, old, x0, x1, eps, theta=None):
     u = slips(old, x0, x1, theta)
     size = np.linalg.norm(u, axis=1)
     u *= (np.minimum(size, eps) / np.maximum(size, 1e-300))[:, None]
-    index, found = _match(old.key, new.key)
+    index, found = _match(old, new, x0, x1)
     carried = np.where(found[:, None], u[index], 0.0)
     carried -= new.normal * np.sum(new.normal * carried, axis=1, keepdims=True)
     return new._replace(rel0=new.rel0 - carried)
@@ -167,7 +187,7 @@ def coulomb_excess(anchors, current, x0, x1, eps, theta=None):
     force = anchors.coefficient * np.where(y < eps, 2.0 * y / eps - y * y / eps**2, 1.0)
     limit = np.zeros_like(force)
     if len(current.key):
-        index, found = _match(current.key, anchors.key)
+        index, found = _match(current, anchors, x0, x1)
         limit = np.where(found, current.coefficient[index], 0.0)
     total = float(force.sum())
     return float(np.maximum(force - limit, 0.0).sum() / total) if total > 0 else 0.0

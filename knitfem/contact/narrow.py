@@ -71,7 +71,7 @@ import numpy as np
 from numba import njit
 
 from .law import penalty
-from .master import bulge, evaluate, gather
+from .master import bulge, critical_points, evaluate, gather, power_basis
 from .search import MAX_ORDER, candidates_in_reach, critical_hits, gauss_points
 
 SLOTS = 6                    # slave a0, a1; master M0..M3
@@ -136,21 +136,25 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, t, kind, R, W, k, g0, tangen
 
 
 @njit(cache=True)
-def _follow(p, M, has_prev, has_next, t, kind, buf):
-    """|p - c| at the critical point near t (Newton on F' = 0 from t; t itself
-    for an end minimum): the same contact at the start of the increment."""
+def _follow(p, M, has_prev, has_next, t, kind, buf, D, roots, kinds):
+    """|p - c| of the same contact at the start of the increment (p, M there):
+    of the critical points of that curve, the one of the same kind nearest
+    the current parameter t (at t itself for the minimum at a stretch's end,
+    or when that curve has none of the kind): a function of the previous
+    state alone, up to which root is nearest."""
     N, dN, ddN, u, c1, c2 = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
-    d = evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
-    for _ in range(30 if kind != 2 else 0):
-        g = -(u[0] * c1[0] + u[1] * c1[1] + u[2] * c1[2])
-        h = (c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]) \
-            - (u[0] * c2[0] + u[1] * c2[1] + u[2] * c2[2])
-        new = min(max(t - g / h, 0.0), 1.0) if h != 0.0 else t
-        if abs(new - t) <= 1e-15:
-            break
-        t = new
-        d = evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
-    return d
+    if kind != 2:
+        C = np.empty((4, 3))
+        power_basis(M, has_prev, has_next, C)
+        count = critical_points(p, C, np.nan, D, roots, kinds)[0]
+        best = np.inf
+        for i in range(count):
+            if kinds[i] == kind and abs(roots[i] - t) < best:
+                best = abs(roots[i] - t)
+                s = roots[i]
+        if best < np.inf:
+            t = s
+    return evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
 
 
 @njit(cache=True)
@@ -195,6 +199,7 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
     # pass 2: their energy, gradient and tangent
     energy = 0.0
     Mp = np.empty((4, 3))
+    D, roots, kinds = np.empty((6, 6)), np.empty(6), np.empty(6, np.int64)
     for h in range(nhits):
         A, q, t = hits_A[h], hits_q[h], hits_t[h]
         B, m = master[t], slot[index[t]]
@@ -206,7 +211,8 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
             has_prev, has_next = gather(B, x0p, x1p, prev, nxt, Mp)
             for j in range(3):
                 p[j] = (1.0 - xi) * x0p[A, j] + xi * x1p[A, j]
-            g_prev = _follow(p, Mp, has_prev, has_next, hits_s[h], hits_k[h], buf) - R
+            g_prev = _follow(p, Mp, has_prev, has_next, hits_s[h], hits_k[h], buf, D, roots,
+                             kinds) - R
         has_prev, has_next = gather(B, x0, x1, prev, nxt, M)
         energy += _gauss_point(xi, x0[A], x1[A], M, has_prev, has_next, hits_s[h], hits_k[h],
                                R, WTS[nq, q] * length[A], k, g0, tangent, grads[m],

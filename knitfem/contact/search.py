@@ -3,7 +3,11 @@ curve, and where.  For every Gauss point of a slave segment, every critical
 point of its distance to every stretch of master yarn within reach (runs of
 neighbouring candidate master segments): the minima, the maxima between
 them and the minima at a stretch's ends (see :mod:`knitfem.contact.narrow`
-for why all of them).  Compiled with numba."""
+for why all of them).  A stretch is a run of candidate masters that follow
+each other (``nxt``) in increasing segment index: the segments of a yarn
+must be numbered along it (as the beam model numbers its elements); numbered
+backwards, every segment would be a stretch of its own and a minimum at each
+joint in reach counted at both its ends.  Compiled with numba."""
 import numpy as np
 from numba import njit
 
