@@ -128,11 +128,16 @@ def test_contact_force_is_continuous_where_minima_tie_and_are_born():
     assert largest[1] < 0.6 * largest[0]
 
 
-def test_tangent_holds_with_two_minima_and_a_maximum_in_reach(rng):
+@pytest.mark.parametrize("damping", [0.0, 10.0])
+def test_tangent_holds_with_two_minima_and_a_maximum_in_reach(rng, damping):
     """Inside the parabolic bend (two minima and the maximum between them in
     reach), nodes perturbed: the contact gradient is the energy's derivative
     and the Hessian in the pairs' slots the gradient's (central differences
-    along random node moves, 1e-6)."""
+    along random node moves, 1e-6), also with normal damping against a
+    previous state where the slave lay outside the bend's two-minima zone
+    (the gap a step ago taken from that state alone: taken at the current
+    parameter where a minimum had no predecessor, the tangent was off by
+    6e-4 here)."""
     law = PenaltyLaw(1000.0, 0.04)
     x0, x1, rod, s_mid = _scene(_parabola(), (0.004, 0.78))
     n, m = len(rod), int(np.sum(rod == 0))
@@ -141,10 +146,13 @@ def test_tangent_holds_with_two_minima_and_a_maximum_in_reach(rng):
     pairs = candidate_pairs(x0, x1, radius, rod, s_mid, law.g0, 2.0, bulge(x0, x1, prev, nxt))
     start = np.where(rod == 0, np.arange(n), np.arange(n) + 1)     # node at each segment's x0
     X = np.vstack([x0[:m], x1[m - 1:m], x0[m:], x1[-1:]]) + 1e-3 * rng.normal(size=(n + 2, 3))
+    Xp = X + 1e-3 * rng.normal(size=X.shape)
+    Xp[m + 1:, 0] += 0.03          # a step ago the slave saw one minimum: one was born since
 
     def evaluate(X):
         out = pair_forces(X[start], X[start + 1], radius, pairs, law, rank=1 - rod, prev=prev,
-                          nxt=nxt, length=length)
+                          nxt=nxt, length=length, previous=(Xp[start], Xp[start + 1]),
+                          damping_rate=damping)
         node = start[out[2] // 2] + out[2] % 2                      # (k, 6) slot nodes
         g = np.zeros_like(X)
         np.add.at(g, node, out[3].reshape(-1, 6, 3))
@@ -159,7 +167,8 @@ def test_tangent_holds_with_two_minima_and_a_maximum_in_reach(rng):
     for _ in range(3):
         v = rng.normal(size=X.shape)
         (ep, gp, _, _), (em, gm, _, _) = evaluate(X + step * v), evaluate(X - step * v)
-        assert abs((ep - em) / (2 * step) - np.sum(g * v)) < 1e-6 * abs(np.sum(g * v))
+        if damping == 0.0:              # damping stores no energy
+            assert abs((ep - em) / (2 * step) - np.sum(g * v)) < 1e-6 * abs(np.sum(g * v))
         Kv = (K @ v.ravel()).reshape(X.shape)
         assert np.linalg.norm((gp - gm) / (2 * step) - Kv) < 1e-6 * np.linalg.norm(Kv)
 

@@ -58,7 +58,9 @@ to phi(g): the tangent is exact, so Newton stays quadratic with contact.
 Normal damping (optional, for quasi-static or dynamic increments): a line load
 c psi(g) dg/dt resisting the gap rate of each active Gauss point, with
 dg/dt = (g - g_prev) / dt, g_prev the gap of the same slave point to the same
-master segment at the start of the increment, and psi = phi''/k the
+master segment at the start of the increment (its minimum of the distance
+nearest the current one, else its closest point: a function of that state
+alone; the subtracted maxima are not damped), and psi = phi''/k the
 penalty's stiffness ramp (0 at g0, 1 in contact), so the damping fades in
 with the contact and the force stays continuous.  It adds
 h = c psi (g - g_prev)/dt to phi' and h' = c (psi + psi' (g - g_prev))/dt to
@@ -71,7 +73,7 @@ import numpy as np
 from numba import njit
 
 from .law import penalty
-from .master import bulge, critical_points, evaluate, gather, power_basis
+from .master import bulge, critical_points, evaluate, gather, power_basis, project
 from .search import MAX_ORDER, candidates_in_reach, critical_hits, gauss_points
 
 SLOTS = 6                    # slave a0, a1; master M0..M3
@@ -97,7 +99,7 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, t, kind, R, W, k, g0, tangen
     if g >= g0 or d < 1e-14 * R:
         return 0.0
     phi, dphi, ddphi = penalty(g, k, g0)
-    if c_dt > 0.0:
+    if c_dt > 0.0 and kind > 0:          # the maxima, subtracted, are not damped
         ramp = ddphi / k
         slope = -1.0 / g0 if g >= 0.0 else 0.0
         dphi += c_dt * ramp * (g - g_prev)
@@ -137,24 +139,23 @@ def _gauss_point(xi, a0, a1, M, has_prev, has_next, t, kind, R, W, k, g0, tangen
 
 @njit(cache=True)
 def _follow(p, M, has_prev, has_next, t, kind, buf, D, roots, kinds):
-    """|p - c| of the same contact at the start of the increment (p, M there):
-    of the critical points of that curve, the one of the same kind nearest
-    the current parameter t (at t itself for the minimum at a stretch's end,
-    or when that curve has none of the kind): a function of the previous
-    state alone, up to which root is nearest."""
+    """|p - c| of the same contact at the start of the increment (p, M there;
+    a function of that state alone): the minimum of that curve nearest the
+    current parameter t, its closest point where it has no interior minimum
+    (the contact was born since), t itself for the minimum at a stretch's end."""
     N, dN, ddN, u, c1, c2 = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
-    if kind != 2:
-        C = np.empty((4, 3))
-        power_basis(M, has_prev, has_next, C)
-        count = critical_points(p, C, np.nan, D, roots, kinds)[0]
-        best = np.inf
-        for i in range(count):
-            if kinds[i] == kind and abs(roots[i] - t) < best:
-                best = abs(roots[i] - t)
-                s = roots[i]
-        if best < np.inf:
-            t = s
-    return evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
+    if kind == 2:
+        return evaluate(p, M, has_prev, has_next, t, N, dN, ddN, u, c1, c2)
+    C = np.empty((4, 3))
+    power_basis(M, has_prev, has_next, C)
+    count = critical_points(p, C, np.nan, D, roots, kinds)[0]
+    best, s = np.inf, t
+    for i in range(count):
+        if kinds[i] == 1 and abs(roots[i] - t) < best:
+            best, s = abs(roots[i] - t), roots[i]
+    if best == np.inf:
+        return project(p, M, has_prev, has_next, N, dN, ddN, u, c1, c2)[2]
+    return evaluate(p, M, has_prev, has_next, s, N, dN, ddN, u, c1, c2)
 
 
 @njit(cache=True)
@@ -207,7 +208,7 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
         xi = XI[nq, q]
         R = radius[A] + radius[B]
         g_prev = 0.0
-        if c_dt > 0.0:       # the same slave point against the same master, a step ago
+        if c_dt > 0.0 and hits_k[h] > 0:    # the same contact, a step ago
             has_prev, has_next = gather(B, x0p, x1p, prev, nxt, Mp)
             for j in range(3):
                 p[j] = (1.0 - xi) * x0p[A, j] + xi * x1p[A, j]
