@@ -227,26 +227,11 @@ def coefficients(x0, x1, prev, nxt):
     c(t) = C0 + C1 t + C2 t^2 + C3 t^3, for the search pass."""
     n = x0.shape[0]
     C = np.empty((n, 4, 3))
+    M = np.empty((4, 3))
     for B in range(n):
-        for j in range(3):
-            p1, p2 = x0[B, j], x1[B, j]
-            p0 = x0[prev[B], j] if prev[B] >= 0 else 2.0 * p1 - p2
-            p3 = x1[nxt[B], j] if nxt[B] >= 0 else 2.0 * p2 - p1
-            C[B, 0, j] = p1
-            C[B, 1, j] = 0.5 * (p2 - p0)
-            C[B, 2, j] = 0.5 * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3)
-            C[B, 3, j] = 0.5 * (-p0 + 3.0 * p1 - 3.0 * p2 + p3)
+        has_prev, has_next = gather(B, x0, x1, prev, nxt, M)
+        power_basis(M, has_prev, has_next, C[B])
     return C
-
-
-@njit(cache=True, inline="always")
-def search_distance(px, py, pz, C):
-    """Distance from (px, py, pz) to the master curve with coefficients C
-    (4, 3) and whether its closest point is clamped to an end (the same
-    converged search as :func:`project`: the choice of master must see the
-    distance the energy sees); scalar arithmetic."""
-    t, clamped, d = _closest(px, py, pz, C)
-    return d, clamped
 
 
 @njit(cache=True, inline="always")

@@ -221,10 +221,7 @@ def _all_pairs(x0, x1, prev, nxt, bulge, radius, length, rank, pairs, XI, WTS, p
     # optionally, every Gauss point's contact at a minimum of the distance: slave,
     # xi, weight, master, t*, normal, line load (the maxima, subtracted where
     # two contacts overlap, carry no friction of their own)
-    n_rec = 0
-    for h in range(nhits if record else 0):
-        if hits_k[h] > 0:
-            n_rec += 1
+    n_rec = int(np.sum(hits_k[:nhits] > 0)) if record else 0
     rec_i = np.empty((n_rec, 3), np.int64)
     rec_f = np.empty((n_rec, 7))
     r = 0

@@ -145,11 +145,10 @@ def critical_hits(x0, x1, prev, nxt, bulge, radius, length, start, master, near,
             last, g_last = -1, 0.0          # the run's last master (list index), F'(1) on it
             for t in range(start[A], start[A + 1] + 1):
                 B = master[t] if t < start[A + 1] else -1
-                R = radius[A] + radius[B]
                 within = False
                 if B >= 0 and near[t]:
                     # the curve lies within ``bulge`` of its chord: far masters cost one distance
-                    gap = chord_distance(p[0], p[1], p[2], x0[B], x1[B]) - R
+                    gap = chord_distance(p[0], p[1], p[2], x0[B], x1[B]) - radius[A] - radius[B]
                     within = gap - bulge[B] < g0
                     if not within:
                         seg_gap[A] = min(seg_gap[A], gap)
