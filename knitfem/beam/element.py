@@ -102,6 +102,32 @@ def _all_elements_serial(xA, xB, qA, qB, h, gamma0, kappa0, CN, CM, tangent):
     return energy, res, K
 
 
+# the triad's geodesic mean (and the chord map W^-1) is singular where the two
+# end frames differ by a half turn (the kernel divides by zero there; its
+# tangent is verified to 1e-9 at 177 deg, tests/test_model.py); an element
+# turned that far -- a yarn twisted by ~pi over one element, which only a
+# near-zero GJ allows -- is refused a degree before
+MAX_ELEMENT_TURN = np.radians(179.0)
+
+
+class ElementTurnError(ValueError):
+    """An element's end frames differ by more than :data:`MAX_ELEMENT_TURN`;
+    ``element`` is its index, ``angle`` the turn (rad)."""
+
+    def __init__(self, element, angle):
+        super().__init__(f"element {element}: its end frames differ by {np.degrees(angle):.1f} "
+                         f"deg, beyond the {np.degrees(MAX_ELEMENT_TURN):.0f} deg an element "
+                         "can represent (a yarn twisted by nearly half a turn over one "
+                         "element: torsional stiffness too small, or too few elements)")
+        self.element, self.angle = int(element), float(angle)
+
+
+def element_turns(qA, qB):
+    """Angle (rad) between the end frames of every element, in [0, pi]."""
+    c = np.minimum(np.abs(np.einsum("ij,ij->i", qA, qB)), 1.0)
+    return 2.0 * np.arccos(c)
+
+
 # Threads pay off from a few thousand elements; below, their start-up (~0.3 ms)
 # costs more than the loop (60 elements: 0.15 ms serial).
 PARALLEL_FROM = 2000
@@ -125,9 +151,17 @@ def element_forces(xA, xB, qA, qB, h, gamma0, kappa0, CN, CM, tangent=True):
         (u_A, theta_A, u_B, theta_B) with spatial rotation increments.
     K : (n, 12, 12) derivative of ``residual`` along the multiplicative update,
         or None when ``tangent`` is False.
+
+    Raises :class:`ElementTurnError` for an element whose end frames differ
+    by more than :data:`MAX_ELEMENT_TURN` (there the kinematics is singular).
     """
     args = [np.ascontiguousarray(a, dtype=np.float64)
             for a in (xA, xB, qA, qB, h, gamma0, kappa0, CN, CM)]
+    if len(h):
+        turns = element_turns(args[2], args[3])
+        worst = int(np.argmax(turns))
+        if not turns[worst] <= MAX_ELEMENT_TURN:
+            raise ElementTurnError(worst, turns[worst])
     if args[0].shape[0] >= PARALLEL_FROM:
         energy, res, K = _all_elements(*args, bool(tangent), 64)
     else:

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..solve.psd import psd_project
 from .assembly import DOFS_PER_NODE, block_matrix
-from .element import element_forces
+from .element import ElementTurnError, element_forces
 
 
 class EnergyProblem:
@@ -56,6 +56,7 @@ class EnergyProblem:
         # a fraction of the smallest yarn diameter: below the 5 % d a fabric
         # relaxation may reach on its way (issue 9)
         self.depth_limit = float(depth) * 2.0 * (min(radii) if radii else np.inf)
+        self.refusal = None         # why the last refused trial state is outside the model
 
     def evaluate(self, state, hessian=True):
         """(E, g, H, H_psd): H CSR on the free dofs and H_psd a function returning
@@ -63,8 +64,17 @@ class EnergyProblem:
         the rest of an iteration); both None without ``hessian``."""
         model, asm = self.model, self.model.assembly
         a, b = asm.elements
-        energy, res, Ke = element_forces(state.x[a], state.x[b], state.q[a], state.q[b], asm.h,
-                                         asm.gamma0, asm.kappa0, asm.CN, asm.CM, hessian)
+        try:
+            energy, res, Ke = element_forces(state.x[a], state.x[b], state.q[a], state.q[b],
+                                             asm.h, asm.gamma0, asm.kappa0, asm.CN, asm.CM,
+                                             hessian)
+        except ElementTurnError as err:
+            # outside the model: a trial state the line search must refuse
+            rod = model.rods[asm.rod_of_element[err.element]]
+            first = int(np.flatnonzero(asm.rod_of_element == asm.rod_of_element[err.element])[0])
+            self.refusal = (f"rod {rod.name or asm.rod_of_element[err.element]!r} element "
+                            f"{err.element - first}: " + str(err).split(": ", 1)[1])
+            return np.inf, np.full(int(self.free.sum()), np.nan), None, None
         E = float(energy.sum())
         f = np.bincount(asm.element_dofs.T.ravel(), weights=res.ravel(), minlength=asm.n_dofs)
         H = None

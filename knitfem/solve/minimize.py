@@ -32,7 +32,9 @@ evaluation is always the current state or the trial): a trial step deeper than
 no accepted state passes the limit unless the start already did (and then
 goes no deeper).  A penalty contact lowers the energy by letting a tense
 yarn cut through a crossing, so Armijo alone accepted transient
-penetrations of 5.5 % d on the way (25 x 35 swatch).
+penetrations of 5.5 % d on the way (25 x 35 swatch).  A trial state outside
+the model (``evaluate`` returning an infinite energy, with the reason in the
+problem's optional ``refusal``) is cut too, and a stall names it.
 """
 from dataclasses import dataclass, field
 
@@ -140,12 +142,14 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
         # raise E beyond that noise is accepted if it lowers the residual
         noise = 1e-12 * max(abs(E), 1e-300)
         too_deep = 0            # trials of this line search that only the depth guard cut
+        refused = 0             # trials outside the model (infinite energy)
         for _ in range(max_cuts):
             x_try = problem.retract(x, t * dx)
             E_try, g_try = problem.evaluate(x_try, False)[:2]
             lower = np.isfinite(E_try) and (
                 E_try <= E + 1e-4 * t * slope or
                 (-t * slope < noise and E_try <= E + noise and problem.residual(g_try) < res))
+            refused += not np.isfinite(E_try)
             if lower and depth is not None and depth() > max(depth_limit, deepest):
                 too_deep += 1
             elif lower:
@@ -166,6 +170,9 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
                 why = (f"; {too_deep} of its trial steps lowered the energy but were cut for "
                        f"pushing contacts deeper than {depth_limit:.3g} into each other (the contact penalty "
                        f"may be too soft for these forces)") if too_deep else ""
+                note = getattr(problem, "refusal", None)
+                if refused and note:
+                    why += f"; {refused} of its trial steps left the model ({note})"
                 raise RelaxationError(f"relaxation stalled at iteration {it}: no decrease of "
                                       f"the energy along a damped Newton step (residual "
                                       f"{res:.3e}){why}", x, history)
