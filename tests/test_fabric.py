@@ -159,6 +159,8 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
                        (["curl", "--radius", "0.6"], "--radius"),
                        (["curl", "--friction", "nan"], "--friction"),
                        (["curl", "--nw", "3", "--nc", "4", "--resume"], "--resume"),
+                       (["curl", "--model", "bspline", "--friction-frame", "anchor"],
+                        "--friction-frame"),
                        (["curl", "--nw", "55", "--nc", "35"], "--no-limits")):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()

@@ -268,6 +268,7 @@ def test_friction_hessian_follows_the_frames_turned_since_the_anchors():
     from knitfem.contact.friction import friction_forces
     model, state = _swatch_touching()
     contact = model.contact_model
+    contact.corotated = False              # the fixed-plane friction (the scene's is co-rotated)
     contact.anchor_friction(state.x, state.q)
     assert len(contact.anchors.ends) >= 5
     n = model.assembly.n_dofs

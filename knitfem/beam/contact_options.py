@@ -19,7 +19,9 @@ class ContactOptions:
     ``solve``'s increments, the load path 0 -> 1 taking the pseudo-time
     ``duration``; friction : Coulomb coefficient mu (0: frictionless), slip :
     its stick slip eps, a length (default 1e-3 of the smallest radius; see
-    :mod:`knitfem.contact.friction`)."""
+    :mod:`knitfem.contact.friction`); corotated : the friction's tangent
+    planes turn with the master yarn within a round (else they stay the
+    anchor's)."""
     law: PenaltyLaw = None
     factor: float = DEFAULT_FACTOR
     regularisation: float = DEFAULT_REGULARISATION
@@ -29,6 +31,7 @@ class ContactOptions:
     duration: float = 1.0
     friction: float = 0.0
     slip: float = None
+    corotated: bool = False
 
     def __post_init__(self):
         if self.slip is not None:

@@ -103,11 +103,13 @@ def _all_elements_serial(xA, xB, qA, qB, h, gamma0, kappa0, CN, CM, tangent):
 
 
 # the triad's geodesic mean (and the chord map W^-1) is singular where the two
-# end frames differ by a half turn (the kernel divides by zero there; its
-# tangent is verified to 1e-9 at 177 deg, tests/test_model.py); an element
-# turned that far -- a yarn twisted by ~pi over one element, which only a
-# near-zero GJ allows -- is refused a degree before
-MAX_ELEMENT_TURN = np.radians(179.0)
+# end frames differ by exactly a half turn (the kernel divides by zero there).
+# Frames 179.9 deg apart are legitimate -- a frame flipped at an inflection
+# and the natural twist taking it back (S-rod and stress cases) -- and the
+# kernel's tangent is verified there; what is refused is the singular point
+# itself, reached when near-zero GJ lets the frames spin (a 4 x 4 swatch at
+# GJ/EI = 1e-3 landed on cos(angle/2) = 0.0 exactly)
+MAX_ELEMENT_TURN = np.pi - 2e-9
 
 
 class ElementTurnError(ValueError):
@@ -115,10 +117,10 @@ class ElementTurnError(ValueError):
     ``element`` is its index, ``angle`` the turn (rad)."""
 
     def __init__(self, element, angle):
-        super().__init__(f"element {element}: its end frames differ by {np.degrees(angle):.1f} "
-                         f"deg, beyond the {np.degrees(MAX_ELEMENT_TURN):.0f} deg an element "
-                         "can represent (a yarn twisted by nearly half a turn over one "
-                         "element: torsional stiffness too small, or too few elements)")
+        super().__init__(f"element {element}: its end frames differ by half a turn "
+                         f"({np.degrees(angle):.7f} deg), where its kinematics is singular (a "
+                         "yarn twisted by half a turn over one element: torsional stiffness "
+                         "too small, or too few elements)")
         self.element, self.angle = int(element), float(angle)
 
 

@@ -204,13 +204,13 @@ class BeamModel:
 
     def contact(self, law=None, *, factor=DEFAULT_FACTOR, regularisation=DEFAULT_REGULARISATION,
                 exclude=None, per_diameter=6, damping=0.0, duration=1.0, friction=0.0,
-                slip=None):
+                slip=None, corotated=False):
         """Switch on penalty contact among all rods (self-contact included); the
         options are those of :class:`ContactOptions` (law, or factor and
         regularisation; exclude; per_diameter; damping and duration; friction
-        and its stick slip)."""
+        and its stick slip, corotated friction planes)."""
         self._contact = ContactOptions(law, factor, regularisation, exclude, per_diameter,
-                                       damping, duration, friction, slip)
+                                       damping, duration, friction, slip, bool(corotated))
         self._contact_model = None
 
     @property
@@ -224,6 +224,7 @@ class BeamModel:
             self._contact_model = BeamContact(self.assembly, law, o.exclude, o.per_diameter,
                                               o.damping)
             self._contact_model.friction = o.friction
+            self._contact_model.corotated = o.corotated
             radius = min(r.section.radius for r in self.rods)
             self._contact_model.slip = o.slip if o.slip is not None else 1e-3 * radius
         return self._contact_model

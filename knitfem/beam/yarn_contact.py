@@ -45,6 +45,7 @@ class BeamContact:
         self.slip = 0.0                    # stick slip eps (length)
         self.anchors = None                # friction anchors of the current increment
         self.anchor_q = None               # nodal frames (n_nodes, 4) when they were set
+        self.corotated = False             # friction's tangent planes turn with the master yarn
 
     def noise(self, size):
         """Round-off level of the contact forces for coordinates of magnitude
@@ -94,7 +95,8 @@ class BeamContact:
         a, b = self.nodes[:, 0], self.nodes[:, 1]
         new = self.segments.friction_anchors(x[a], x[b], self.friction, self.length)
         if carry and self.anchors is not None:
-            new = carry_slip(new, self.anchors, x[a], x[b], self.slip, self._turns(q)[1])
+            new = carry_slip(new, self.anchors, x[a], x[b], self.slip, self._turns(q)[1],
+                             self.corotated)
         self.anchors, self.anchor_q = new, np.array(q, dtype=float)
 
     def coulomb_excess(self, x, q):
@@ -105,7 +107,8 @@ class BeamContact:
             return 0.0
         a, b = self.nodes[:, 0], self.nodes[:, 1]
         current = self.segments.friction_anchors(x[a], x[b], self.friction, self.length)
-        return coulomb_excess(self.anchors, current, x[a], x[b], self.slip, self._turns(q)[1])
+        return coulomb_excess(self.anchors, current, x[a], x[b], self.slip, self._turns(q)[1],
+                              self.corotated)
 
     def blocks(self, x, q=None, tangent=True):
         """Energy and per-block groups [(dofs (m, w), gradients (m, w), Hessians
@@ -127,27 +130,30 @@ class BeamContact:
                 raise ValueError("friction needs the frames q (it twists the yarns)")
             theta, ends_theta = self._turns(q)
             Ef, gf, hf = friction_forces(self.anchors, x[a], x[b], self.slip, tangent,
-                                         ends_theta, factored=True)
+                                         ends_theta, factored=True, corotated=self.corotated)
             # d theta / d(spatial increment) = J_l(theta)^-1: exact gradients for
             # the energy line search, and the Hessian's factors mapped alike
             # (J^T H3 J; what is left out is the gradient times d2 theta, of
             # order |g| |theta|).  With the leading term alone the Hessian was
             # off by 270 % along the 25 x 35's final Newton steps (its soft
             # modes are held by friction): t = 1 was refused and the rounds
-            # converged linearly, stalling near 3e-7
-            rot_nodes = self.nodes[self.anchors.rot_ends // 2, self.anchors.rot_ends % 2]
-            Jinv = _left_jacobian_inverse(theta[rot_nodes])            # (k, 4, 3, 3)
-            g_rot = gf[:, 18:].reshape(-1, 4, 3)
-            gf = np.concatenate([gf[:, :18], np.einsum("kbji,kbj->kbi", Jinv,
-                                                       g_rot).reshape(-1, 12)], axis=1)
-            if hf is not None:
-                J_rot = np.einsum("kibj,kbjl->kibl", hf.J[:, :, 18:].reshape(-1, 3, 4, 3), Jinv)
-                hf = hf._replace(J=np.concatenate([hf.J[:, :, :18],
-                                                   J_rot.reshape(-1, 3, 12)], axis=2))
+            # converged linearly, stalling near 3e-7.  The co-rotated friction
+            # differentiates with respect to the spatial turns itself
+            if not self.corotated:
+                rot_nodes = self.nodes[self.anchors.rot_ends // 2, self.anchors.rot_ends % 2]
+                Jinv = _left_jacobian_inverse(theta[rot_nodes])            # (k, 4, 3, 3)
+                g_rot = gf[:, 18:].reshape(-1, 4, 3)
+                gf = np.concatenate([gf[:, :18], np.einsum("kbji,kbj->kbi", Jinv,
+                                                           g_rot).reshape(-1, 12)], axis=1)
+                if hf is not None:
+                    J_rot = np.einsum("kibj,kbjl->kibl", hf.J[:, :, 18:].reshape(-1, 3, 4, 3),
+                                      Jinv)
+                    hf = hf._replace(J=np.concatenate([hf.J[:, :, :18],
+                                                       J_rot.reshape(-1, 3, 12)], axis=2))
             energy += Ef
             dofs = np.concatenate([self._dofs(self.anchors.ends),
                                    self._rot_dofs(self.anchors.rot_ends)], axis=1)
-            groups.append((dofs, gf, hf, True))
+            groups.append((dofs, gf, hf, not self.corotated))
         return energy, groups
 
     def forces(self, x, tangent=True, free=None, direction=None, q=None):

@@ -64,6 +64,9 @@ def load_checkpoint(path, scene, model):
     data = np.load(path)
     # a checkpoint written before a scene field existed ran with its default
     defaults = {f.name: f.default for f in fields(FabricScene) if f.default is not MISSING}
+    # ... except where the default changed since: friction planes fixed at the
+    # round's start until the co-rotated friction became the default
+    defaults["corotated_friction"] = False
     saved = {**defaults, **json.loads(str(data["scene"]))}
     if json.dumps(saved, sort_keys=True) != json.dumps(scene.as_dict(), sort_keys=True):
         raise ValueError(f"--resume: {path} holds a run with other parameters; remove it or "

@@ -3,8 +3,8 @@
     knitfem curl --nw 10 --nc 35 [--model beam|bspline] [--alpha 0.2]
                  [--w 4 --c 3 --radius 0.4] [--elements-per-loop 16]
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
-                 [--bindoff-stiffness 10] [--out DIR] [--json FILE] [--resume]
-                 [--no-render] [--quiet] [--no-limits]
+                 [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
+                 [--out DIR] [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model (measured on the loaded 2-core machine: a 5 x 5 swatch, 3 012
 unknowns, about 2 600 minimisation iterations of ~45 ms): ``S_PER_DOF_ITERATION
@@ -56,6 +56,13 @@ def _resume_needs_out(v):
 
 RESUME = Check(_resume_needs_out)     # knitfem curl's own (not a sweep study's --resume)
 
+
+def _frame_needs_beam(v):
+    frame = getattr(v, "friction_frame", None)
+    if frame is not None and getattr(v, "model", "beam") == "bspline":
+        refuse("--friction-frame", "applies to --model beam only (the bspline model is "
+               "frictionless)", frame)
+
 _NO_TWIST = ("model", "beam", "the bspline model has no torsional stiffness (no twist energy)")
 
 OPTIONS = OptionSet(
@@ -80,6 +87,7 @@ OPTIONS = OptionSet(
          help="bind-off stiffness relative to the yarn's"),
     Check(_yarn_fits),
     RESUME,
+    Check(_frame_needs_beam),
     Budget("memory", memory, ("--nw", "--nc", "--elements-per-loop")),
     Budget("run time", seconds, ("--nw", "--nc", "--elements-per-loop")),
 )
@@ -107,6 +115,10 @@ def add_parser(subparsers):
                    "yarn-level model")
     p.add_argument("--resume", action="store_true",
                    help="continue from the checkpoint in --out (same options)")
+    p.add_argument("--friction-frame", choices=("corotated", "anchor"), default=None,
+                   help="beam: the friction forces' tangent planes turn with the master yarn "
+                   "within a friction round (corotated, default) or stay those of the round's "
+                   "start (anchor: the code before 2026-12-02)")
     return add_output_options(p, "folder: relaxation path, final .vtu, renders, checkpoint")
 
 
@@ -125,7 +137,9 @@ def run(args):
                                 elements_per_loop=args.elements_per_loop, alpha=args.alpha,
                                 ea_over_ei=args.ea_over_ei, gj_over_ei=args.gj_over_ei,
                                 bindoff_stiffness=args.bindoff_stiffness,
-                                friction=args.friction)
+                                friction=args.friction,
+                                corotated_friction=(args.friction_frame or "corotated")
+                                == "corotated")
             summary = curl(scene, out=args.out, render=not args.no_render,
                            progress=not args.quiet, resume=args.resume)
         verdict = f"{summary['curl']} curl" if summary["curl"] is not None else \

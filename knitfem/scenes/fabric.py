@@ -73,6 +73,7 @@ class FabricScene:
     ties: bool = True
     EI: float = 1.0                 # N mm^2 (nominal: only ratios matter)
     mirror: bool = False            # knitted from the other side (geometry.mirror_swatch)
+    corotated_friction: bool = True    # friction planes turn with the master yarn in a round
 
     def as_dict(self):
         return asdict(self)
@@ -102,7 +103,7 @@ def _model(scene, swatch):
             model.tie(ya, pa, yb, pb)
     model.contact(factor=scene.penalty, regularisation=scene.regularisation,
                   per_diameter=scene.per_diameter, friction=scene.friction,
-                  slip=scene.slip * scene.radius)
+                  slip=scene.slip * scene.radius, corotated=scene.corotated_friction)
     return model
 
 

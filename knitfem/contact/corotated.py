@@ -1,0 +1,123 @@
+"""Co-rotated friction slip (see :mod:`knitfem.contact.friction`): the slip
+of a pair's touching points measured in the master yarn's frame at the pair,
+turned with it since the anchor,
+
+    u = P_n [ R_m^T (r - a_s R_s n) - rel0 ],
+
+with its first derivatives (translations and spatial turns of the slots'
+frames) and the gradient-weighted second derivatives.  Lengths as the
+caller's; rotations in radians.
+"""
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+SLOTS = 6
+
+
+def _geodesic(R, tau):
+    """Rotations R_A exp(tau psi) (k, 3, 3) between R_A = R[:, 0] and R_B =
+    R[:, 1] (psi = log(R_A^T R_B): adjacent frames, far below a half turn)
+    and the maps C_A, C_B (k, 3, 3) of the ends' spatial turns to the turn of
+    that rotation (phi = C_A w_A + C_B w_B, exact).  Interpolating the ends'
+    rotation vectors instead jumps where one of them passes a half turn
+    since the anchor (its logarithm wraps): seen within one friction round
+    of a 3 x 4 swatch at alpha 0.2."""
+    RA = R[:, 0]
+    psi = Rotation.from_matrix(np.swapaxes(RA, 1, 2) @ R[:, 1]).as_rotvec()
+    mid = RA @ Rotation.from_rotvec(tau[:, None] * psi).as_matrix()
+    C_B = tau[:, None, None] * (RA @ _left_jacobian(tau[:, None] * psi)
+                                @ np.linalg.inv(_left_jacobian(psi)) @ np.swapaxes(RA, 1, 2))
+    return mid, np.eye(3)[None] - C_B, C_B
+
+
+def _corotation(anchors, r, theta):
+    """The co-rotated slip's pieces: lever arm a_s (k,), the slave's and the
+    master's rotations at the pair R_s, R_m (k, 3, 3) with their turn maps
+    (:func:`_geodesic`, along the slave chord and the master segment), the
+    centrelines' relative vector r (k, 3) and m = R_s n (k, 3)."""
+    a = anchors
+    w = a.rot_weights
+    arm_s, arm_m = w[:, 0] + w[:, 1], w[:, 2] + w[:, 3]
+    k = len(w)
+    th = theta[a.rot_ends // 2, a.rot_ends % 2].reshape(-1, 3)
+    R = Rotation.from_rotvec(th).as_matrix().reshape(k, 4, 3, 3)
+    R_s, *C_s = _geodesic(R[:, :2], w[:, 1] / arm_s)
+    R_m, *C_m = _geodesic(R[:, 2:], w[:, 3] / arm_m)
+    return arm_s, C_s, C_m, R_s, R_m, r, np.einsum("kij,kj->ki", R_s, a.normal)
+
+
+def corotated_slip(anchors, r, theta):
+    """Slip in the master's material frame, P_n [R_m^T (r - a_s R_s n) - rel0],
+    and the pieces of :func:`_corotation`."""
+    a = anchors
+    arm_s, _, _, R_s, R_m, r, m = parts = _corotation(a, r, theta)
+    v = np.einsum("kji,kj->ki", R_m, r - arm_s[:, None] * m) - a.rel0
+    return v - a.normal * np.sum(a.normal * v, axis=1, keepdims=True), parts
+
+
+def _left_jacobian(theta):
+    """J_l(theta) (k, 3, 3) of SO(3): d exp(theta) = hat(J_l d theta) exp(theta)."""
+    t = np.linalg.norm(theta, axis=1)[:, None, None]
+    W = hat(theta)
+    small = t < 1e-4
+    ts = np.where(small, 1.0, t)
+    c1 = np.where(small, 0.5 - t * t / 24.0, (1.0 - np.cos(ts)) / ts**2)
+    c2 = np.where(small, 1.0 / 6.0 - t * t / 120.0, (ts - np.sin(ts)) / ts**3)
+    return np.eye(3) + c1 * W + c2 * (W @ W)
+
+
+def hat(v):
+    """Cross-product matrices (k, 3, 3): hat(v) w = v x w."""
+    h = np.zeros(v.shape + (3,))
+    h[:, 0, 1], h[:, 0, 2], h[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+    h[:, 1, 0], h[:, 2, 0], h[:, 2, 1] = v[:, 2], -v[:, 1], v[:, 0]
+    return h
+
+
+def corotated_jacobian(anchors, r, theta):
+    """Co-rotated slip u (k, 3), du/d(slots) (k, 3, 30) for the slots'
+    translations and *spatial* turns of their frames, and the pieces the
+    second derivatives need: translations s_a R_m^T, the master's turns
+    R_m^T hat(v) C_b with v = r - a_s m, the slave's a_s R_m^T hat(m) C_b
+    (the tangent-plane projection left to the callers: gradient and Hessian
+    live in the plane)."""
+    a = anchors
+    u, (arm_s, C_s, C_m, R_s, R_m, r, m) = corotated_slip(a, r, theta)
+    k = len(u)
+    RmT = np.swapaxes(R_m, 1, 2)
+    J = np.zeros((k, 3, 3 * SLOTS + 12))
+    J[:, :, :3 * SLOTS] = (a.s[:, None, :, None] * RmT[:, :, None, :]).reshape(k, 3, 3 * SLOTS)
+    v = r - arm_s[:, None] * m
+    master, slave = RmT @ hat(v), arm_s[:, None, None] * (RmT @ hat(m))
+    C = np.stack(C_s + C_m, axis=1)                                   # (k, 4, 3, 3)
+    J[:, :, 3 * SLOTS:] = np.concatenate([slave[:, None] @ C[:, :2], master[:, None] @ C[:, 2:]],
+                                         axis=1).transpose(0, 2, 1, 3).reshape(k, 3, 12)
+    return u, J, (R_m, v, m, arm_s, C)
+
+
+def corotated_geometric(g3, pieces, s):
+    """g3 . d2u (k, 30, 30): the Hessian's part from the turning of the
+    master's frame (R_m^T) and of the slave's touching point (R_s n), with
+    G = R_m g3: d2(R_m^T v) gives (G v^T + v G^T)/2 - (G.v) I, the turn of m
+    likewise times -a_s, the master's turn against the slave's a_s (m G^T -
+    (G.m) I), the master's turn against the translations s_a hat(G); mapped
+    to the ends' spatial turns by C (what changes C itself, of order the
+    frames' relative turn along a segment times |g|, is left out)."""
+    R_m, v, m, arm_s, C = pieces
+    k = len(g3)
+    G = np.einsum("kij,kj->ki", R_m, g3)
+    eye = np.eye(3)[None]
+    Gv, Gm = np.sum(G * v, axis=1)[:, None, None], np.sum(G * m, axis=1)[:, None, None]
+    outer = lambda p, q: p[:, :, None] * q[:, None, :]
+    phi = np.zeros((k, 2, 3, 2, 3))             # (slave, master) turns at the pair
+    phi[:, 0, :, 0, :] = -arm_s[:, None, None] * (0.5 * (outer(G, m) + outer(m, G)) - Gm * eye)
+    phi[:, 1, :, 1, :] = 0.5 * (outer(G, v) + outer(v, G)) - Gv * eye
+    phi[:, 1, :, 0, :] = arm_s[:, None, None] * (outer(m, G) - Gm * eye)
+    phi[:, 0, :, 1, :] = np.swapaxes(phi[:, 1, :, 0, :], 1, 2)
+    side = np.array([0, 0, 1, 1])
+    K = np.zeros((k, 10, 3, 10, 3))
+    K[:, 6:, :, 6:, :] = np.einsum("kbji,kbjcl,kclm->kbicm", C, phi[:, side][:, :, :, side], C)
+    tm = np.einsum("kbji,kjl,ka->kbial", C[:, 2:], hat(G), s)     # (k, 2, 3, 6, 3)
+    K[:, 8:, :, :6, :] = tm
+    K[:, :6, :, 8:, :] = tm.transpose(0, 3, 4, 1, 2)
+    return K.reshape(k, 30, 30)
