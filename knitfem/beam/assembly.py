@@ -196,7 +196,9 @@ def block_matrix(dofs, blocks, n_dofs, free=None):
     whose pattern changes between calls (contact pairs, ties).  ``blocks`` may
     also be :class:`knitfem.contact.friction.Factored` (J^T H J per block)."""
     if hasattr(blocks, "J"):
-        return _factored_matrix(dofs, blocks, n_dofs, free)
+        K = _factored_matrix(dofs, blocks, n_dofs, free)
+        extra = getattr(blocks, "G", None)
+        return K if extra is None else K + block_matrix(dofs, extra, n_dofs, free)
     rows = np.broadcast_to(dofs[:, :, None], blocks.shape).ravel()
     cols = np.broadcast_to(dofs[:, None, :], blocks.shape).ravel()
     data, n = np.ravel(blocks), n_dofs

@@ -99,7 +99,7 @@ class EnergyProblem:
                 H = H + Kg
                 if psd:
                     convex = Kg if convex is None else convex + Kg
-                else:
+                elif psd is not None:             # None: left out of the PSD model
                     blocks.append((dofs, Kb))
         u = state.x - self.X
         E -= self.lam * float(self.f_ext.reshape(-1, DOFS_PER_NODE)[:, :3].ravel() @ u.ravel())

@@ -56,7 +56,7 @@ friction forces' net moment held free-floating swatches with reactions of
 29-78 % of the force scale (10 x 35, 3 x 4, 4 x 4 at alpha 0.2).  Co-rotated,
 the 3 x 4, 4 x 4 and 5 x 5 at alpha 0.2 settle, reactions ~2e-7.  Its Hessian blocks
 are dense and indefinite (J^T H3 J plus the gradient times the second
-derivatives of u), so they go through the PSD model like the contact's.
+derivatives of u); the PSD model keeps the first and leaves the second out.
 
 Quasi-static paths need the friction to *persist*: re-anchoring (at a new
 increment, or to update the lagged normal forces and frames within one)
@@ -224,21 +224,27 @@ def _f0(y, eps):
 
 
 class Factored(NamedTuple):
-    """Hessian blocks given by factors: block k = J[k]^T H[k] J[k], J (k, r, w),
-    H (k, r, r) symmetric.  A friction block is 30 x 30 of rank <= 2 (the slip
-    lives in the tangent plane): assembled from its factors it costs a
-    fraction of the dense blocks (:func:`knitfem.beam.assembly.block_matrix`)."""
+    """Hessian blocks given by factors: block k = J[k]^T H[k] J[k] (+ G[k]),
+    J (k, r, w), H (k, r, r) symmetric, G (k, w, w) dense or None.  A
+    friction block's J^T H J is 30 x 30 of rank <= 2 (the slip lives in the
+    tangent plane): assembled from its factors it costs a fraction of the
+    dense blocks (:func:`knitfem.beam.assembly.block_matrix`); G, the
+    co-rotated friction's geometric part, is indefinite (kept apart from
+    the PSD factors)."""
     J: np.ndarray
     H: np.ndarray
+    G: np.ndarray = None
 
     def dense(self):
         """The blocks (k, w, w)."""
-        return np.einsum("kiz,kij,kjw->kzw", self.J, self.H, self.J)
+        base = np.einsum("kiz,kij,kjw->kzw", self.J, self.H, self.J)
+        return base if self.G is None else base + self.G
 
     def apply(self, v):
-        """Per block J^T H J v for block vectors v (k, w)."""
+        """Per block (J^T H J + G) v for block vectors v (k, w)."""
         Jv = np.einsum("kiw,kw->ki", self.J, v)
-        return np.einsum("kiw,kij,kj->kw", self.J, self.H, Jv)
+        out = np.einsum("kiw,kij,kj->kw", self.J, self.H, Jv)
+        return out if self.G is None else out + np.einsum("kzw,kw->kz", self.G, v)
 
 
 def friction_forces(anchors, x0, x1, eps, tangent=True, theta=None, factored=False,
@@ -251,9 +257,10 @@ def friction_forces(anchors, x0, x1, eps, tangent=True, theta=None, factored=Fal
     Hessians as :class:`Factored` (J (k, 3, w), H3 (k, 3, 3)) instead.
     ``corotated`` (with theta): the slip measured in the master yarn's frame
     turned since the anchor (:func:`slips`), so the friction forces turn with
-    the yarns within a round; its Hessians are dense (k, 30, 30) and not
-    positive semi-definite: J^T H3 J plus the gradient times the second
-    derivatives of u (:func:`knitfem.contact.corotated.corotated_geometric`)."""
+    the yarns within a round; its Hessians are not positive semi-definite:
+    J^T H3 J plus G, the gradient times the second derivatives of u
+    (:func:`knitfem.contact.corotated.corotated_geometric`; ``factored``:
+    in :class:`Factored`'s G)."""
     a = anchors
     k = a.ends.shape[0]
     width = 3 * SLOTS + (12 if theta is not None else 0)
@@ -291,8 +298,5 @@ def friction_forces(anchors, x0, x1, eps, tangent=True, theta=None, factored=Fal
     second = np.where(stick, -y / eps**2, -1.0 / np.maximum(y, 1e-300))
     H3 = a.coefficient[:, None, None] * (f1_y[:, None, None] * P + second[:, None, None]
                                          * uhat[:, :, None] * uhat[:, None, :])
-    hess = Factored(J, H3)
-    if pieces is not None:
-        # not positive semi-definite, and not of low rank: dense blocks
-        return energy, grads, hess.dense() + corotated_geometric(g3, pieces, a.s)
+    hess = Factored(J, H3, None if pieces is None else corotated_geometric(g3, pieces, a.s))
     return energy, grads, (hess if factored else hess.dense())
