@@ -429,3 +429,25 @@ def test_extra_final_rounds_survive_a_resume(monkeypatch, tmp_path):
     result, inc = fabric_relax._increment(model, state, 1.0, 1e-8, 5, 8, np.inf,
                                           start=partial, extra_rounds=8)
     assert result is not None and inc.iterations == 13
+
+
+def test_a_checkpoint_from_before_the_corotated_friction_resumes_as_fixed_planes(tmp_path):
+    """Checkpoints written before the scene had ``corotated_friction`` ran
+    with friction in fixed tangent planes: they resume only with
+    ``--friction-frame anchor`` (corotated_friction=False), and the default
+    options are refused as other parameters instead of silently changing the
+    friction half-way."""
+    import json as _json
+    from knitfem.scenes.curl import _save_checkpoint, load_checkpoint
+    old = FabricScene(3, 4, alpha=0.05, corotated_friction=False)
+    model, _, _ = build(old)
+    path = tmp_path / "checkpoint.npz"
+    _save_checkpoint(path, old, model.initial_state(), 0.0, 0.1, [], model.contact_model)
+    data = dict(np.load(path))
+    scene = _json.loads(str(data["scene"]))
+    del scene["corotated_friction"]
+    data["scene"] = _json.dumps(scene, sort_keys=True)
+    np.savez(path, **data)
+    assert load_checkpoint(path, old, model)[1] == 0.0
+    with pytest.raises(ValueError, match="other parameters"):
+        load_checkpoint(path, FabricScene(3, 4, alpha=0.05), model)
