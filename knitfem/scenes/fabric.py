@@ -28,6 +28,12 @@ building it; see README "Fabric curling"):
   knit of naturally straight yarn is not held together by anything but its
   topology, and it collapses (the courses slide together, then it tangles:
   measured with and without pre-stretch, with ties and stiff bind-off).
+  ``corotated_friction`` (default): each slip measured in the master yarn's
+  frame turned since the friction round began
+  (:mod:`knitfem.contact.corotated`); in the fixed tangent planes of the
+  round's start instead, the rounds did not settle at alpha 0.2 and the
+  friction's net moment held the free-floating swatch with 44-78 % of the
+  force scale (3 x 4 .. 5 x 5), co-rotated ~2e-7.
 * **Contact**: penalty ``penalty`` EI/r^4 (1000: the pre-stretch tension
   presses the yarns together harder than the default's design load), skin
   g0 = 5 % of d.  The geometry is knitted with an inflated radius so that no
