@@ -144,7 +144,9 @@ def slips(anchors, x0, x1, theta=None, corotated=False):
     ``corotated``: measured in the master yarn's frame at the pair (turned
     with it since the anchor) and returned in space (R_m u)."""
     a = anchors
-    if corotated and theta is not None:
+    if corotated and theta is None:
+        raise ValueError("the co-rotated friction slip needs the frames' turns theta")
+    if corotated:
         r = np.einsum("ka,kaj->kj", a.s, _slot_points(a.ends, x0, x1))
         u, parts = corotated_slip(a, r, theta)
         return np.einsum("kij,kj->ki", parts[4], u)
@@ -270,7 +272,9 @@ def friction_forces(anchors, x0, x1, eps, tangent=True, theta=None, factored=Fal
         return 0.0, np.zeros((0, width)), (Factored(np.zeros((0, 3, width)), np.zeros((0, 3, 3)))
                                            if factored else np.zeros((0, width, width)))
     pieces = None
-    if corotated and theta is not None:
+    if corotated and theta is None:
+        raise ValueError("the co-rotated friction needs the frames' turns theta")
+    if corotated:
         r = np.einsum("ka,kaj->kj", a.s, _slot_points(a.ends, x0, x1))
         u, J, pieces = corotated_jacobian(a, r, theta)
     else:
