@@ -239,13 +239,13 @@ class Factored(NamedTuple):
 
     def dense(self):
         """The blocks (k, w, w)."""
-        base = np.einsum("kiz,kij,kjw->kzw", self.J, self.H, self.J)
+        base = np.einsum("kiz,kij,kjw->kzw", self.J, self.H, self.J, optimize=True)
         return base if self.G is None else base + self.G
 
     def apply(self, v):
         """Per block (J^T H J + G) v for block vectors v (k, w)."""
         Jv = np.einsum("kiw,kw->ki", self.J, v)
-        out = np.einsum("kiw,kij,kj->kw", self.J, self.H, Jv)
+        out = np.einsum("kiw,kij,kj->kw", self.J, self.H, Jv, optimize=True)
         return out if self.G is None else out + np.einsum("kzw,kw->kz", self.G, v)
 
 
