@@ -148,6 +148,17 @@ def test_factored_friction_blocks_assemble_to_the_dense_ones(rng):
         1e-12 * abs(reference).max()
     v = rng.normal(size=dofs.shape)
     assert np.allclose(F.apply(v), np.einsum("kij,kj->ki", dense, v), rtol=1e-12, atol=0)
+    # scattered into a kept CSR pattern: the same matrix, dense or factored,
+    # with fixed dofs cut, and bit for bit the same whether the pattern was
+    # built by this call or kept from an earlier one
+    from knitfem.beam import assembly
+    assembly._PATTERNS.clear()
+    kept = [block_matrix(dofs, blocks, contact.n_dofs, free, keep_pattern=True)
+            for blocks in (F, dense, F)]
+    for K in kept:
+        assert abs(K - reference).max() <= 1e-12 * abs(reference).max()
+    assert np.array_equal(kept[0].toarray(), kept[2].toarray())
+    assert len(assembly._PATTERNS) == 1
 
 
 def test_pulled_yarn_holds_below_mu_N():

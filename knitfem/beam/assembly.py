@@ -128,25 +128,14 @@ class RodAssembly:
             if free is None:
                 index, n = np.arange(self.n_dofs), self.n_dofs
             else:
-                index = np.cumsum(free) - 1
-                index[~np.asarray(free, bool)] = -1
-                n = int(np.count_nonzero(free))
-            dofs = index[self.element_dofs.T]
-            keep = ((dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)).ravel()
-            flat = (dofs[:, :, None].astype(np.int64) * n + dofs[:, None, :]).ravel()
-            unique, slot = np.unique(flat[keep], return_inverse=True)
-            slots = np.full(flat.shape[0], unique.shape[0])
-            slots[keep] = slot
-            indptr = np.searchsorted(unique // n, np.arange(n + 1))
-            self._patterns[key] = (slots, unique % n, indptr, n)
+                index, n = _free_numbering(np.asarray(free, bool))
+            self._patterns[key] = csr_pattern(index[self.element_dofs.T], n)
         return self._patterns[key]
 
     def scatter(self, Ke, free=None):
         """CSR matrix of element matrices (nel, 12, 12), optionally restricted to
         the ``free`` dofs; the sparsity pattern is computed once per mask."""
-        slots, indices, indptr, n = self._pattern(free)
-        data = np.bincount(slots, weights=Ke.ravel(), minlength=indices.shape[0] + 1)
-        return sparse.csr_matrix((data[:-1], indices, indptr), shape=(n, n))
+        return scatter_blocks(self._pattern(free), Ke)
 
     def distributed_load(self, force_per_length):
         """Consistent nodal forces (n_dofs,) of a force per unit length per rod.
@@ -156,6 +145,44 @@ class RodAssembly:
         """
         f = np.asarray(force_per_length, dtype=float)[self.rod_of_element]   # (nel, 3)
         return line_load.assemble(self.basis, f=f.T[:, :, None])
+
+
+def csr_pattern(dofs, n):
+    """CSR structure (indices, indptr) of per-block matrices at ``dofs`` (m, k)
+    (numbered among n unknowns, -1 where fixed) and the slot of every block
+    entry in it, (slots, indices, indptr, n); entries in a fixed row or column
+    go to a spare slot that is dropped."""
+    keep = ((dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)).ravel()
+    flat = (dofs[:, :, None].astype(np.int64) * n + dofs[:, None, :]).ravel()
+    unique, slot = np.unique(flat[keep], return_inverse=True)
+    slots = np.full(flat.shape[0], unique.shape[0])
+    slots[keep] = slot
+    indptr = np.searchsorted(unique // n, np.arange(n + 1))
+    return slots, unique % n, indptr, n
+
+
+def scatter_blocks(pattern, blocks):
+    """CSR matrix of per-block matrices (m, k, k) in a :func:`csr_pattern`."""
+    slots, indices, indptr, n = pattern
+    data = np.bincount(slots, weights=np.ravel(blocks), minlength=indices.shape[0] + 1)
+    return sparse.csr_matrix((data[:-1], indices, indptr), shape=(n, n))
+
+
+# kept CSR patterns of block_matrix(..., keep_pattern=True), by their dofs
+# (friction anchors keep theirs for a whole round); only their speed depends
+# on this cache, not their arithmetic: a pattern is the same built or kept
+_PATTERNS = {}
+_PATTERN_LIMIT = 8
+
+
+def _kept_pattern(dofs, n_dofs, free):
+    key = (n_dofs, dofs.shape, dofs.tobytes(), None if free is None else free.tobytes())
+    if key not in _PATTERNS:
+        while len(_PATTERNS) >= _PATTERN_LIMIT:
+            del _PATTERNS[next(iter(_PATTERNS))]
+        index, n = (np.arange(n_dofs), n_dofs) if free is None else _free_numbering(free)
+        _PATTERNS[key] = csr_pattern(index[dofs], n)
+    return _PATTERNS[key]
 
 
 def block_vector(dofs, values, n_dofs):
@@ -190,11 +217,19 @@ def _factored_matrix(dofs, blocks, n_dofs, free):
     return (G.T @ (W @ G)).tocsr()
 
 
-def block_matrix(dofs, blocks, n_dofs, free=None):
+def block_matrix(dofs, blocks, n_dofs, free=None, keep_pattern=False):
     """CSR matrix of per-block matrices blocks (m, k, k) at dofs (m, k) (duplicates
     summed), restricted to the ``free`` dofs (mask (n_dofs,)) if given.  For terms
-    whose pattern changes between calls (contact pairs, ties).  ``blocks`` may
-    also be :class:`knitfem.contact.friction.Factored` (J^T H J per block)."""
+    whose pattern may change between calls (contact pairs, friction anchors,
+    ties).  ``blocks`` may also be :class:`knitfem.contact.friction.Factored`
+    (J^T H J per block).  ``keep_pattern``: for blocks whose dofs stay the same
+    over many calls (friction anchors within a round), the CSR pattern is kept
+    by the dofs and the blocks are scattered into it (Factored: its dense
+    blocks, 4 x faster than the products); the arithmetic depends on the flag
+    only, never on what was kept before (a resumed run repeats its path)."""
+    if keep_pattern:
+        dense = blocks.dense() if hasattr(blocks, "J") else blocks
+        return scatter_blocks(_kept_pattern(dofs, n_dofs, free), dense)
     if hasattr(blocks, "J"):
         K = _factored_matrix(dofs, blocks, n_dofs, free)
         extra = getattr(blocks, "G", None)
@@ -202,8 +237,7 @@ def block_matrix(dofs, blocks, n_dofs, free=None):
     rows = np.broadcast_to(dofs[:, :, None], blocks.shape).ravel()
     cols = np.broadcast_to(dofs[:, None, :], blocks.shape).ravel()
     data, n = np.ravel(blocks), n_dofs
-    # exact zeros dropped: the co-rotated friction's geometric blocks are 60 %
-    # structural zeros, whose sorting into CSR was half of a 5 x 5 Hessian's cost
+    # exact zeros dropped: structural zeros cost a sort into CSR for nothing
     keep = data != 0.0
     if free is not None:
         index, n = _free_numbering(free)

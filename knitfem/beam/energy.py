@@ -95,7 +95,9 @@ class EnergyProblem:
             f += np.bincount(dofs.ravel(), np.ravel(fe), minlength=asm.n_dofs)
             if hessian and len(dofs):
                 symmetric = Kb if hasattr(Kb, "J") else 0.5 * (Kb + np.swapaxes(Kb, 1, 2))
-                Kg = block_matrix(dofs, symmetric, asm.n_dofs, self.free)
+                # friction groups (psd True or None) keep their dofs for a round
+                Kg = block_matrix(dofs, symmetric, asm.n_dofs, self.free,
+                                  keep_pattern=psd is not False)
                 H = H + Kg
                 if psd:
                     convex = Kg if convex is None else convex + Kg

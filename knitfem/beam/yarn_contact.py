@@ -18,6 +18,7 @@ point along the master over dt).
 import numpy as np
 
 from ..contact import PenaltyLaw, SegmentContact, carry_slip, friction_forces
+from ..contact.corotated import left_jacobian_inverse
 from ..contact.friction import coulomb_excess
 from .assembly import DOFS_PER_NODE, block_matrix, block_vector
 from .rotation import spatial_turn
@@ -118,7 +119,9 @@ class BeamContact:
         ``psd`` says whether every Hessian block is positive semi-definite
         by construction (friction: :func:`knitfem.contact.friction.friction_forces`),
         None for a part the PSD model may leave out (the co-rotated
-        friction's geometric part)."""
+        friction's geometric part).  The friction groups (``psd`` True or
+        None) keep their dofs for a whole round: their assembly keeps its
+        CSR pattern (``block_matrix(..., keep_pattern=True)``)."""
         a, b = self.nodes[:, 0], self.nodes[:, 1]
         previous, rate = None, 0.0
         if self.damping > 0.0 and self.rate_reference is not None:
@@ -143,7 +146,7 @@ class BeamContact:
             # differentiates with respect to the spatial turns itself
             if not self.corotated:
                 rot_nodes = self.nodes[self.anchors.rot_ends // 2, self.anchors.rot_ends % 2]
-                Jinv = _left_jacobian_inverse(theta[rot_nodes])            # (k, 4, 3, 3)
+                Jinv = left_jacobian_inverse(theta[rot_nodes])            # (k, 4, 3, 3)
                 g_rot = gf[:, 18:].reshape(-1, 4, 3)
                 gf = np.concatenate([gf[:, :18], np.einsum("kbji,kbj->kbi", Jinv,
                                                            g_rot).reshape(-1, 12)], axis=1)
@@ -173,28 +176,16 @@ class BeamContact:
         K = Kv = None
         if tangent:
             Kv = np.zeros(self.n_dofs) if direction is not None else None
-        for dofs, grads, hess, _ in groups:
+        for dofs, grads, hess, psd in groups:
             f += block_vector(dofs, grads, self.n_dofs)
             if tangent:
-                Kg = block_matrix(dofs, hess, self.n_dofs, free)
+                Kg = block_matrix(dofs, hess, self.n_dofs, free, keep_pattern=psd is not False)
                 K = Kg if K is None else K + Kg
                 if direction is not None:
                     v = direction[dofs]
                     Kv += block_vector(dofs, hess.apply(v) if hasattr(hess, "J") else
                                        np.einsum("mij,mj->mi", hess, v), self.n_dofs)
         return energy, f, K, Kv
-
-
-def _left_jacobian_inverse(theta):
-    """J_l(theta)^-1 (..., 3, 3) of SO(3): d log(exp(d) exp(theta)) / d d at d = 0."""
-    t = np.linalg.norm(theta, axis=-1)[..., None, None]
-    W = np.zeros(theta.shape + (3,))
-    W[..., 0, 1], W[..., 0, 2], W[..., 1, 2] = -theta[..., 2], theta[..., 1], -theta[..., 0]
-    W[..., 1, 0], W[..., 2, 0], W[..., 2, 1] = theta[..., 2], -theta[..., 1], theta[..., 0]
-    small = t < 1e-4
-    ts = np.where(small, 1.0, t)
-    coef = np.where(small, 1.0 / 12.0, (1.0 - 0.5 * ts * np.sin(ts) / (1.0 - np.cos(ts))) / ts**2)
-    return np.eye(3) - 0.5 * W + coef * (W @ W)
 
 
 def default_law(rods, factor, regularisation):

@@ -9,24 +9,30 @@ frames) and the gradient-weighted second derivatives.  Lengths as the
 caller's; rotations in radians.
 """
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 SLOTS = 6
 
 
-def _geodesic(R, tau):
-    """Rotations R_A exp(tau psi) (k, 3, 3) between R_A = R[:, 0] and R_B =
-    R[:, 1] (psi = log(R_A^T R_B): adjacent frames, far below a half turn)
-    and the maps C_A, C_B (k, 3, 3) of the ends' spatial turns to the turn of
-    that rotation (phi = C_A w_A + C_B w_B, exact).  Interpolating the ends'
-    rotation vectors instead jumps where one of them passes a half turn
-    since the anchor (its logarithm wraps): seen within one friction round
-    of a 3 x 4 swatch at alpha 0.2."""
-    RA = R[:, 0]
-    psi = Rotation.from_matrix(np.swapaxes(RA, 1, 2) @ R[:, 1]).as_rotvec()
-    mid = RA @ Rotation.from_rotvec(tau[:, None] * psi).as_matrix()
+def _geodesic(theta_a, theta_b, tau):
+    """Rotations R_A exp(tau psi) (k, 3, 3) between the ends' rotations R_A =
+    exp(theta_a) and R_B = exp(theta_b) (rotation vectors (k, 3); psi =
+    log(R_A^T R_B): adjacent frames, far below a half turn) and the maps C_A,
+    C_B (k, 3, 3) of the ends' spatial turns to the turn of that rotation (phi
+    = C_A w_A + C_B w_B, exact).  Interpolating the ends' rotation vectors
+    instead jumps where one of them passes a half turn since the anchor (its
+    logarithm wraps): seen within one friction round of a 3 x 4 swatch at
+    alpha 0.2.  Through quaternions and with J_l^-1 in closed form: scipy's
+    matrix logarithm and numpy's batched inverse were a sixth of a 5 x 5
+    relaxation."""
+    # imported here: knitfem.beam imports this package (its yarn contact)
+    from ..beam.rotation import (quat_conjugate, quat_exp, quat_multiply, rotation_matrix,
+                                 rotation_vector)
+    qa = quat_exp(theta_a)
+    psi = rotation_vector(quat_multiply(quat_conjugate(qa), quat_exp(theta_b)))
+    RA = rotation_matrix(qa)
+    mid = rotation_matrix(quat_multiply(qa, quat_exp(tau[:, None] * psi)))
     C_B = tau[:, None, None] * (RA @ _left_jacobian(tau[:, None] * psi)
-                                @ np.linalg.inv(_left_jacobian(psi)) @ np.swapaxes(RA, 1, 2))
+                                @ left_jacobian_inverse(psi) @ np.swapaxes(RA, 1, 2))
     return mid, np.eye(3)[None] - C_B, C_B
 
 
@@ -38,11 +44,9 @@ def _corotation(anchors, r, theta):
     a = anchors
     w = a.rot_weights
     arm_s, arm_m = w[:, 0] + w[:, 1], w[:, 2] + w[:, 3]
-    k = len(w)
-    th = theta[a.rot_ends // 2, a.rot_ends % 2].reshape(-1, 3)
-    R = Rotation.from_rotvec(th).as_matrix().reshape(k, 4, 3, 3)
-    R_s, *C_s = _geodesic(R[:, :2], w[:, 1] / arm_s)
-    R_m, *C_m = _geodesic(R[:, 2:], w[:, 3] / arm_m)
+    th = theta[a.rot_ends // 2, a.rot_ends % 2]
+    R_s, *C_s = _geodesic(th[:, 0], th[:, 1], w[:, 1] / arm_s)
+    R_m, *C_m = _geodesic(th[:, 2], th[:, 3], w[:, 3] / arm_m)
     return arm_s, C_s, C_m, R_s, R_m, r, np.einsum("kij,kj->ki", R_s, a.normal)
 
 
@@ -66,11 +70,23 @@ def _left_jacobian(theta):
     return np.eye(3) + c1 * W + c2 * (W @ W)
 
 
+def left_jacobian_inverse(theta):
+    """J_l(theta)^-1 (..., 3, 3) of SO(3), closed form: d log(exp(d) exp(theta))
+    / d d at d = 0 (theta (..., 3) below a full turn)."""
+    t = np.linalg.norm(theta, axis=-1)[..., None, None]
+    W = hat(theta)
+    small = t < 1e-4
+    ts = np.where(small, 1.0, t)
+    coef = np.where(small, 1.0 / 12.0 + t * t / 720.0,
+                    (1.0 - 0.5 * ts * np.sin(ts) / (1.0 - np.cos(ts))) / ts**2)
+    return np.eye(3) - 0.5 * W + coef * (W @ W)
+
+
 def hat(v):
-    """Cross-product matrices (k, 3, 3): hat(v) w = v x w."""
+    """Cross-product matrices (..., 3, 3): hat(v) w = v x w."""
     h = np.zeros(v.shape + (3,))
-    h[:, 0, 1], h[:, 0, 2], h[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
-    h[:, 1, 0], h[:, 2, 0], h[:, 2, 1] = v[:, 2], -v[:, 1], v[:, 0]
+    h[..., 0, 1], h[..., 0, 2], h[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    h[..., 1, 0], h[..., 2, 0], h[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
     return h
 
 

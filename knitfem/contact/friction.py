@@ -229,8 +229,10 @@ class Factored(NamedTuple):
     """Hessian blocks given by factors: block k = J[k]^T H[k] J[k] (+ G[k]),
     J (k, r, w), H (k, r, r) symmetric, G (k, w, w) dense or None.  A
     friction block's J^T H J is 30 x 30 of rank <= 2 (the slip lives in the
-    tangent plane): assembled from its factors it costs a fraction of the
-    dense blocks (:func:`knitfem.beam.assembly.block_matrix`); G, the
+    tangent plane): assembled from its factors by sparse products it costs a
+    fraction of the dense blocks sorted into CSR; once the anchors' pattern
+    is kept, the dense blocks are scattered into it, faster still
+    (:func:`knitfem.beam.assembly.block_matrix`); G, the
     co-rotated friction's geometric part, is indefinite (kept apart from
     the PSD factors)."""
     J: np.ndarray
