@@ -171,7 +171,30 @@ def _bracketed(D, k, lo, hi, vlo):
 
 
 @njit(cache=True)
-def critical_points(p, C, g_start, D, roots, kinds):
+def _squared_distance_floor(p, C, D):
+    """A lower bound of |c(t) - p|^2 on [0, 1]: the least Bernstein coefficient
+    of that sextic (it lies in their convex hull), from c(0) and row 0 of D
+    (its derivative over 2), less 1e-12 of the largest against round-off."""
+    f = np.empty(7)
+    f[0] = 0.0
+    for j in range(3):
+        f[0] += (C[0, j] - p[j]) ** 2
+    for i in range(6):
+        f[i + 1] = 2.0 * D[0, i] / (i + 1)
+    low, high = np.inf, 0.0
+    for k in range(7):
+        b, ck, c6 = 0.0, 1.0, 1.0            # C(k, i), C(6, i)
+        for i in range(k + 1):
+            if i > 0:
+                ck = ck * (k - i + 1) / i
+                c6 = c6 * (7 - i) / i
+            b += ck / c6 * f[i]
+        low, high = min(low, b), max(high, abs(b))
+    return low - 1e-12 * high
+
+
+@njit(cache=True)
+def critical_points(p, C, g_start, D, roots, kinds, floor=-1.0):
     """Every critical point of the distance from p to the master curve C
     (4, 3) inside (0, 1]: the roots of F'(t) = (c(t) - p).c'(t), a quintic,
     each isolated exactly between the roots of its derivative (recursively
@@ -180,7 +203,9 @@ def critical_points(p, C, g_start, D, roots, kinds):
     -1 a maximum of the distance) in order; returns their count, F'(0) and
     F'(1).  g_start, if finite, is used as F'(0): a point where two master
     curves join is given the same sign on both sides, so a critical point
-    there is counted once.  D (6, 6), roots and kinds (6,) are scratch."""
+    there is counted once.  floor > 0: none is sought (count 0) where the
+    whole curve is certainly farther than floor from p.  D (6, 6), roots and
+    kinds (6,) are scratch."""
     for i in range(6):
         for k in range(6):
             D[k, i] = 0.0
@@ -198,6 +223,8 @@ def critical_points(p, C, g_start, D, roots, kinds):
             D[k, i] = (i + 1) * D[k - 1, i + 1]
     g0 = D[0, 0] if np.isnan(g_start) else g_start
     g1 = _value(D, 0, 1.0)
+    if floor > 0.0 and _squared_distance_floor(p, C, D) > floor * floor:
+        return 0, g0, g1
     # the linear fourth derivative's root, then each row's roots between those
     # of the row below (on each piece the row is monotone: one root at most)
     count = 0

@@ -162,8 +162,14 @@ def critical_hits(x0, x1, prev, nxt, bulge, radius, length, start, master, near,
                     last = -1
                 if not within:
                     continue
+                # where the curve is certainly out of reach and farther than every
+                # gap noted for A, B and the swatch, its critical points would change
+                # nothing: none are sought (the root isolation was ~90 % of the
+                # search at 10 x 35, and the Bernstein bound rules out ~90 % of it)
+                floor = radius[A] + radius[B] + max(max(g0, stats[0]),
+                                                    max(seg_gap[A], seg_gap[B]))
                 count, g_begin, g_last = critical_points(p, C[B], g_last if joined else np.nan,
-                                                         D, roots, kinds)
+                                                         D, roots, kinds, floor)
                 if not joined and g_begin >= 0.0:
                     nhits = _hit(p, C, t, 0.0, 2, A, q, master, radius, g0, stats, seg_gap,
                                  hits_A, hits_q, hits_t, hits_s, hits_k, nhits)

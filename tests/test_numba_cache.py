@@ -1,0 +1,30 @@
+"""numba's cache is keyed by all of knitfem's source (knitfem.numba_cache):
+numba itself drops a cached kernel only when the kernel's own file changes,
+so an edit to a callee in another module would leave a stale caller."""
+import os
+
+from knitfem import numba_cache
+
+
+def _tree(root, text):
+    (root / "contact").mkdir(parents=True)
+    (root / "contact" / "master.py").write_text(text)
+    (root / "contact" / "narrow.py").write_text("from .master import f\n")
+
+
+def test_any_source_change_gives_another_cache_folder(tmp_path):
+    a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    _tree(a, "def f(x):\n    return x\n")
+    _tree(b, "def f(x):\n    return x\n")
+    _tree(c, "def f(x):\n    return x + 1\n")     # the callee edited, the caller not
+    assert numba_cache.source_hash(a) == numba_cache.source_hash(b)
+    assert numba_cache.source_hash(a) != numba_cache.source_hash(c)
+    assert numba_cache.cache_dir(a, {}) != numba_cache.cache_dir(c, {})
+
+
+def test_the_folder_follows_numba_cache_dir_and_is_what_numba_uses(tmp_path):
+    import numba
+    env = {"NUMBA_CACHE_DIR": str(tmp_path)}
+    assert numba_cache.cache_dir(environ=env) == os.path.join(
+        str(tmp_path), f"knitfem-{numba_cache.source_hash()}")
+    assert numba.config.CACHE_DIR == numba_cache.cache_dir()
