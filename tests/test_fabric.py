@@ -82,9 +82,9 @@ def test_small_swatch_relaxes_to_a_converged_stable_equilibrium(relaxed_3x4):
     friction's verdict consistent with its last round's move (not its size:
     the frictional path is chaotic in round-off — 6.9e-4 r with the
     libraries' default threads and 9.4e-4 r on one thread before 2026-12-03,
-    2.0e-3 r with d5d78df and 0.34 r with the friction speed-ups of that day (sums
-    reordered), both one
-    thread, the rolls 25-85 degrees apart: another equilibrium) and
+    2.0e-3 r with d5d78df and 0.34 r after that day's friction speed-ups
+    reordered some sums, both on one thread, the rolls 25-85 degrees apart:
+    another equilibrium) and
     the held node's reaction ~0: <= 1e-4 of the force scale (measured 3.3e-6
     and 1.9e-6; 1.6 % while
     friction acted at the yarns' surface points, a couple per pair inside
