@@ -125,10 +125,7 @@ class RodAssembly:
         entries in a fixed row or column go to a spare slot that is dropped."""
         key = None if free is None else np.asarray(free, bool).tobytes()
         if key not in self._patterns:
-            if free is None:
-                index, n = np.arange(self.n_dofs), self.n_dofs
-            else:
-                index, n = _free_numbering(np.asarray(free, bool))
+            index, n = _numbering(free, self.n_dofs)
             self._patterns[key] = csr_pattern(index[self.element_dofs.T], n)
         return self._patterns[key]
 
@@ -180,7 +177,7 @@ def _kept_pattern(dofs, n_dofs, free):
     if key not in _PATTERNS:
         while len(_PATTERNS) >= _PATTERN_LIMIT:
             del _PATTERNS[next(iter(_PATTERNS))]
-        index, n = (np.arange(n_dofs), n_dofs) if free is None else _free_numbering(free)
+        index, n = _numbering(free, n_dofs)
         _PATTERNS[key] = csr_pattern(index[dofs], n)
     return _PATTERNS[key]
 
@@ -195,6 +192,13 @@ def _free_numbering(free):
     index = np.cumsum(free) - 1
     index[~free] = -1
     return index, int(np.count_nonzero(free))
+
+
+def _numbering(free, n_dofs):
+    """:func:`_free_numbering` of a mask, or all n_dofs in order when ``free`` is None."""
+    if free is None:
+        return np.arange(n_dofs), n_dofs
+    return _free_numbering(np.asarray(free, bool))
 
 
 def _factored_matrix(dofs, blocks, n_dofs, free):
