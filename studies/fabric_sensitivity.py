@@ -30,7 +30,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 EDGES = ("left", "right", "top", "bottom")
 VARY = {"elements-per-loop": int, "alpha": float, "w": float, "c": float, "radius": float,
         "ea-over-ei": float, "gj-over-ei": float, "friction": float,
-        "bindoff-stiffness": float}
+        "bindoff-stiffness": float, "inflation": float}
 ROLL_TOLERANCE_DEG = 5.0          # the criterion between the two finest levels
 
 

@@ -165,10 +165,33 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
                        (["curl", "--nw", "3", "--nc", "4", "--resume"], "--resume"),
                        (["curl", "--model", "bspline", "--friction-frame", "anchor"],
                         "--friction-frame"),
+                       (["curl", "--inflation", "-0.1"], "--inflation"),
+                       (["curl", "--radius", "0.45", "--inflation", "0.2"], "--inflation"),
+                       (["curl", "--model", "bspline", "--inflation", "0.1"], "--inflation"),
                        (["curl", "--nw", "55", "--nc", "35"], "--no-limits")):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and flag in err
+
+
+def test_a_fixed_inflation_knits_that_geometry_and_a_too_small_one_is_refused():
+    """The radius inflation the swatch is knitted with grows as the elements
+    per loop fall; a refinement study holds it fixed (``inflation``): the
+    automatic choice given back knits the same swatch, a finer
+    discretisation takes it and stays clear of the skin, and one that leaves
+    chords inside the skin is refused naming the automatic choice."""
+    model, _, info = build(FabricScene(3, 4))
+    auto = info["inflation"]
+    assert auto > 0.0
+    same, _, fixed = build(FabricScene(3, 4, inflation=auto))
+    assert fixed["inflation"] == auto
+    assert np.array_equal(same.assembly.initial_positions(), model.assembly.initial_positions())
+    scene = FabricScene(3, 4, elements_per_loop=24, inflation=auto)
+    finer = build(scene)[2]
+    assert finer["inflation"] == auto
+    assert finer["start_gap_over_d"] >= 1.02 * scene.regularisation
+    with pytest.raises(ValueError, match=rf"inflation 0 leaves .*valid: inflation >= {auto:g}"):
+        build(FabricScene(3, 4, inflation=0.0))
 
 
 def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_path, capsys):

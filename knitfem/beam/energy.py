@@ -82,16 +82,10 @@ class EnergyProblem:
         convex = None               # assembled groups that are PSD by construction
         if hessian:
             H = asm.scatter(0.5 * (Ke + np.swapaxes(Ke, 1, 2)), self.free)
-        groups = []
-        if model.tie_model is not None:
-            Ep, fe, Kb = model.tie_model.element_forces(state.x, hessian)
-            E += float(Ep.sum())
-            groups.append((model.tie_model.dofs(), fe, Kb, False))
-        if model.contact_model is not None:
-            Ep, contact_groups = model.contact_model.blocks(state.x, state.q, hessian)
+        energies, groups = self.groups(state, hessian)
+        for Ep in energies:
             E += Ep
-            groups.extend(contact_groups)
-        for dofs, fe, Kb, psd in groups:
+        for _, dofs, fe, Kb, psd in groups:
             f += np.bincount(dofs.ravel(), np.ravel(fe), minlength=asm.n_dofs)
             if hessian and len(dofs):
                 symmetric = Kb if hasattr(Kb, "J") else 0.5 * (Kb + np.swapaxes(Kb, 1, 2))
@@ -118,6 +112,26 @@ class EnergyProblem:
                 Hp = Hp + block_matrix(dofs, psd_project(Kb), asm.n_dofs, self.free)
             return Hp if convex is None else Hp + convex
         return E, g, H, psd_model
+
+    def groups(self, state, hessian=True):
+        """The terms besides the rods' elements, per block: (energies, [(name,
+        dofs (m, w), gradients (m, w), Hessians or None, psd)]) with name
+        "ties", "contact" or "friction" (psd as
+        :meth:`knitfem.beam.yarn_contact.BeamContact.blocks` says: the
+        co-rotated friction's geometric Hessian part comes as a second
+        "friction" group with zero gradients)."""
+        model = self.model
+        energies, groups = [], []
+        if model.tie_model is not None:
+            Ep, fe, Kb = model.tie_model.element_forces(state.x, hessian)
+            energies.append(float(Ep.sum()))
+            groups.append(("ties", model.tie_model.dofs(), fe, Kb, False))
+        if model.contact_model is not None:
+            Ep, contact_groups = model.contact_model.blocks(state.x, state.q, hessian)
+            energies.append(Ep)
+            names = {False: "contact", True: "friction", None: "friction"}
+            groups.extend((names[group[3]], *group) for group in contact_groups)
+        return energies, groups
 
     def depth(self):
         """Deepest contact penetration (length, >= 0) of the last evaluated

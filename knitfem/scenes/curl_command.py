@@ -47,6 +47,10 @@ def _yarn_fits(v):
     if not lo <= v.c <= hi:
         refuse("--c", f"must be in [{fmt(lo)}, {fmt(hi)}] for --w {fmt(v.w)} and --radius "
                f"{fmt(v.radius)} (tighter bends than the yarn)", v.c)
+    inflation = getattr(v, "inflation", None)
+    if inflation is not None and not v.radius * (1.0 + inflation) < v.w / 8.0:
+        refuse("--inflation", f"must be below --w/(8 --radius) - 1 = "
+               f"{fmt(v.w / (8.0 * v.radius) - 1.0)} (the knitted radius below --w/8)", inflation)
 
 
 def _resume_needs_out(v):
@@ -88,6 +92,11 @@ OPTIONS = OptionSet(
          "last state is reported as not converged"),
     Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
          help="bind-off stiffness relative to the yarn's"),
+    Real("--inflation", None, "[0, 0.5]", when=("model", "beam", "the bspline swatch is "
+         "fitted to the knitted points as they are"),
+         help="beam: radius inflation the swatch is knitted with, a fraction (default: the "
+         "smallest multiple of 0.02 that keeps every pair outside the contact skin; it grows "
+         "as --elements-per-loop falls: give one to hold the knitted geometry fixed)"),
     Check(_yarn_fits),
     RESUME,
     Check(_frame_needs_beam),
@@ -140,7 +149,7 @@ def run(args):
                                 elements_per_loop=args.elements_per_loop, alpha=args.alpha,
                                 ea_over_ei=args.ea_over_ei, gj_over_ei=args.gj_over_ei,
                                 bindoff_stiffness=args.bindoff_stiffness,
-                                friction=args.friction,
+                                friction=args.friction, inflation=args.inflation,
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
             summary = curl(scene, out=args.out, render=not args.no_render,

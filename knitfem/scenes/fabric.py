@@ -48,7 +48,7 @@ building it; see README "Fabric curling"):
 * **Rigid motion**: one node held (statically determinate: its reactions
   vanish at equilibrium and are reported).
 """
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -80,6 +80,11 @@ class FabricScene:
     EI: float = 1.0                 # N mm^2 (nominal: only ratios matter)
     mirror: bool = False            # knitted from the other side (geometry.mirror_swatch)
     corotated_friction: bool = True    # friction planes turn with the master yarn in a round
+    # the radius inflation the swatch is knitted with (fraction); None: the
+    # smallest multiple of 0.02 that keeps the contact clear (see build).  It
+    # grows as the elements per loop fall (5 x 5: 0.12 at 16 per loop, 0.08 at
+    # 24, 0.06 at 32-48), so a refinement study holds it fixed
+    inflation: float = None
 
     def as_dict(self):
         return asdict(self)
@@ -119,19 +124,38 @@ def build(scene, max_tries=10):
 
     The swatch is knitted with an inflated radius r (1 + delta), delta raised
     in steps of 0.02 until the model's own contact (its chords, master curves,
-    slave Gauss points) sees no pair inside the skin g0 at the start."""
+    slave Gauss points) sees no pair inside the skin g0 at the start; or with
+    ``scene.inflation`` as delta, refused (naming it and the automatic
+    choice) if that leaves a pair inside the skin."""
     g0 = scene.regularisation * 2.0 * scene.radius
-    delta, min_gap = 0.0, -np.inf
-    for _ in range(max_tries):
-        if scene.radius * (1.0 + delta) >= scene.w / 8.0:
-            break
+
+    def knit(delta):
         swatch = plain_knit_swatch(scene.nw, scene.nc, scene.w, scene.c,
                                    scene.radius * (1.0 + delta),
                                    points_per_loop=scene.elements_per_loop)
         if scene.mirror:
             swatch = mirror_swatch(swatch)
         model = _model(scene, swatch)
-        min_gap = model.contact_report(model.initial_state()).min_gap
+        return swatch, model, model.contact_report(model.initial_state()).min_gap
+    if scene.inflation is not None:
+        delta = float(scene.inflation)
+        fits = scene.radius * (1.0 + delta) < scene.w / 8
+        if not (np.isfinite(delta) and 0.0 <= delta and fits):
+            raise ValueError(f"inflation must be in [0, {scene.w / 8 / scene.radius - 1:.3g}) "
+                             f"(the knitted radius below w/8), got {scene.inflation!r}")
+        swatch, model, min_gap = knit(delta)
+        if not min_gap >= 1.02 * g0:
+            auto = build(replace(scene, inflation=None), max_tries)[2]["inflation"]
+            raise ValueError(f"inflation {delta:g} leaves yarns {min_gap:.3g} mm apart at "
+                             f"{scene.elements_per_loop} elements per loop, inside the contact "
+                             f"skin {g0:.3g} mm (valid: inflation >= {auto:g}, the automatic "
+                             f"choice, or more --elements-per-loop)")
+        return _finish(scene, model, swatch, delta, min_gap)
+    delta, min_gap = 0.0, -np.inf
+    for _ in range(max_tries):
+        if scene.radius * (1.0 + delta) >= scene.w / 8.0:
+            break
+        swatch, model, min_gap = knit(delta)
         if min_gap >= 1.02 * g0:
             break
         delta += 0.02
@@ -140,6 +164,11 @@ def build(scene, max_tries=10):
                          f"{scene.elements_per_loop} elements per loop: no knitted geometry keeps "
                          f"the yarns {g0:.3g} apart (valid: radius well below w/8 = "
                          f"{scene.w / 8:g}, or more --elements-per-loop)")
+    return _finish(scene, model, swatch, delta, min_gap)
+
+
+def _finish(scene, model, swatch, delta, min_gap):
+    """Length scale, the held node and the build's info."""
     model.set_length_scale(swatch.loop.w)
     held = model.free_body()
     info = {"inflation": delta, "start_gap_over_d": min_gap / (2.0 * scene.radius),
