@@ -8,13 +8,17 @@ from knitfem.beam.energy import EnergyProblem
 from knitfem.scenes.fabric import FabricScene, Homotopy, build
 from knitfem.scenes import fabric_relax
 
+# The scenes here take 16 elements per loop, not the default 24: the tests check
+# the mechanics and the protocol, not the resolution (16 per loop locks the
+# yarn's sliding at alpha 0.2, README), and 16 keeps them fast.
+
 
 def test_knitted_shape_is_an_equilibrium_at_the_start_of_the_homotopy():
     """At lam = 0 the natural strains are the knitted shape's and the yarns
     start clear of the contact skin: the residual is round-off (below the
     relaxation's tolerance 1e-8 of the force scale; measured 5e-10) and no
     contact carries load; the first homotopy step is far from equilibrium."""
-    scene = FabricScene(3, 3)
+    scene = FabricScene(3, 3, elements_per_loop=16)
     model, swatch, info = build(scene)
     assert info["start_gap_over_d"] >= scene.regularisation
     Homotopy(model, scene.alpha).apply(0.0)
@@ -24,6 +28,21 @@ def test_knitted_shape_is_an_equilibrium_at_the_start_of_the_homotopy():
     assert model.contact_report(state).active_pairs == 0
     Homotopy(model, scene.alpha).apply(0.05)
     assert problem.residual(problem.evaluate(state, False)[1]) > 1e-3
+
+
+def test_yarn_axial_strain_is_the_knitted_length_over_the_shrunk_rest_length():
+    """At the knitted shape the strain is 0 at lam = 0 and 1/(1 - alpha) - 1
+    once the rest length has shrunk (lam >= the stretch stage's end)."""
+    from knitfem.scenes.fabric import yarn_axial_strain
+    scene = FabricScene(3, 3, elements_per_loop=16, alpha=0.2)
+    model, _, _ = build(scene)
+    state, homotopy = model.initial_state(), Homotopy(model, scene.alpha)
+    homotopy.apply(0.0)
+    assert max(map(abs, yarn_axial_strain(model, state))) < 1e-12
+    for lam in (0.3, 0.6, 1.0):
+        homotopy.apply(lam)
+        median, largest = yarn_axial_strain(model, state)
+        assert abs(median - 0.25) < 1e-12 and abs(largest - 0.25) < 1e-12
 
 
 def _first_steps(scene, iterations=15):
@@ -39,8 +58,8 @@ def test_scaling_all_stiffnesses_together_leaves_the_shape_unchanged():
     the minimiser is scale-free (Marquardt scaling, relative residual, step
     limit in lengths): the first 15 steps of the relaxation with EI x 7.3 go
     through the same positions (1e-8 mm) and residuals (1e-8 relative)."""
-    _, a = _first_steps(FabricScene(3, 3))
-    _, b = _first_steps(FabricScene(3, 3, EI=7.3))
+    _, a = _first_steps(FabricScene(3, 3, elements_per_loop=16))
+    _, b = _first_steps(FabricScene(3, 3, elements_per_loop=16, EI=7.3))
     assert a.iterations == b.iterations == 15
     assert np.abs(a.state.x - b.state.x).max() < 1e-8
     assert abs(a.residual - b.residual) <= 1e-8 * a.residual
@@ -70,7 +89,7 @@ def relaxed_3x4(tmp_path_factory):
     return summary, kept, out
 
 
-SCENE = FabricScene(3, 4, alpha=0.05)
+SCENE = FabricScene(3, 4, elements_per_loop=16, alpha=0.05)
 RELAX = {}                        # the default increments
 
 
@@ -101,6 +120,7 @@ def test_small_swatch_relaxes_to_a_converged_stable_equilibrium(relaxed_3x4):
     assert np.isfinite(move) and summary["friction_settled"] is (move <= 1e-3)
     assert summary["reaction_over_force_scale"] <= 1e-4
     assert 0.0 <= summary["contact_overlap_share"] < 1.0
+    assert np.isfinite(list(summary["yarn_axial_strain"].values())).all()
     assert json.loads((out / "curl_3x4.json").read_text())["residual"] == summary["residual"]
 
 
@@ -146,7 +166,7 @@ def test_a_failed_relaxation_says_so_and_keeps_its_last_equilibrium(tmp_path):
     failed, no curl claimed (the half-relaxed shape kept apart, labelled with
     its homotopy lam), and the state written (.vtu, JSON) for inspection."""
     from knitfem.scenes.curl import curl
-    summary = curl(FabricScene(3, 4), out=tmp_path, render=False, progress=False,
+    summary = curl(FabricScene(3, 4, elements_per_loop=16), out=tmp_path, render=False, progress=False,
                    relax_options=dict(iterations=1, max_rounds=1, dlam_min=0.05))
     assert summary["converged"] is False and summary["curl"] is None
     assert "relaxation failed near homotopy lam" in summary["error"]
@@ -180,10 +200,10 @@ def test_a_fixed_inflation_knits_that_geometry_and_a_too_small_one_is_refused():
     automatic choice given back knits the same swatch, a finer
     discretisation takes it and stays clear of the skin, and one that leaves
     chords inside the skin is refused naming the automatic choice."""
-    model, _, info = build(FabricScene(3, 4))
+    model, _, info = build(FabricScene(3, 4, elements_per_loop=16))
     auto = info["inflation"]
     assert auto > 0.0
-    same, _, fixed = build(FabricScene(3, 4, inflation=auto))
+    same, _, fixed = build(FabricScene(3, 4, elements_per_loop=16, inflation=auto))
     assert fixed["inflation"] == auto
     assert np.array_equal(same.assembly.initial_positions(), model.assembly.initial_positions())
     scene = FabricScene(3, 4, elements_per_loop=24, inflation=auto)
@@ -191,7 +211,7 @@ def test_a_fixed_inflation_knits_that_geometry_and_a_too_small_one_is_refused():
     assert finer["inflation"] == auto
     assert finer["start_gap_over_d"] >= 1.02 * scene.regularisation
     with pytest.raises(ValueError, match=rf"inflation 0 leaves .*valid: inflation >= {auto:g}"):
-        build(FabricScene(3, 4, inflation=0.0))
+        build(FabricScene(3, 4, elements_per_loop=16, inflation=0.0))
 
 
 def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_path, capsys):
@@ -220,7 +240,7 @@ def test_a_failed_increment_retries_from_the_last_equilibriums_friction_anchors(
     were found at: an increment whose rounds re-anchored the friction and then
     failed leaves the anchors (and their frames) of the last accepted
     equilibrium in place, for the retry and for the failure's report."""
-    model, _, _ = build(FabricScene(3, 3))
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
     contact = model.contact_model
     state = model.initial_state()
     contact.anchor_friction(state.x, state.q)
@@ -242,7 +262,7 @@ def test_increments_of_a_tenth_end_on_exactly_one_final_increment(monkeypatch):
     """Ten increments of 0.1 sum to 0.9999999999999999 in floating point: the
     homotopy must still end on one increment at exactly lam = 1, solved to
     ``tol`` (not a round-off increment to path_tol and then another)."""
-    model, _, _ = build(FabricScene(3, 3))
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
     targets = []
 
     def recording(model, state, lam, tol, *args, **kwargs):
@@ -265,7 +285,7 @@ def test_a_failed_attempts_work_is_counted_but_not_its_path(monkeypatch):
     """An increment that failed and was retried smaller cost iterations and
     time: the total counts them (a run's cost is what it ran), the path and
     its penetration are those of the accepted increments."""
-    model, _, _ = build(FabricScene(3, 3))
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
     calls = []
 
     def first_fails(model, state, lam, *args, **kwargs):
@@ -312,7 +332,7 @@ def test_final_rounds_go_on_while_they_contract_and_stop_when_they_do_not(monkey
     round ends at half the residual of the one before, rounds beyond
     ``max_rounds`` go on (up to ``extra_rounds``); once they stall the
     increment fails, saying after how many rounds."""
-    model, _, _ = build(FabricScene(3, 3))
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
     state = model.initial_state()
     halving = [10.0 ** -k for k in range(1, 12)]      # converges in round 8
     _scripted_rounds(monkeypatch, halving)
@@ -336,7 +356,7 @@ def test_final_rounds_go_on_while_their_moves_halve(monkeypatch, tmp_path):
     most 0.7 times as far as the one before, until one moves less than ``creep``;
     the moves survive a resume; rounds whose moves stall end on the budget."""
     from knitfem.scenes import curl as curl_module
-    model, _, _ = build(FabricScene(3, 3))
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
     state = model.initial_state()
     moves = [0.3 ** k for k in range(1, 20)]          # below 1e-3 in round 6
     _scripted_rounds(monkeypatch, [1e-9] * 19, moves=moves)
@@ -345,7 +365,7 @@ def test_final_rounds_go_on_while_their_moves_halve(monkeypatch, tmp_path):
     partial = fabric_relax.Partial(1.0, state, 4, 4, np.inf, 0.0, ends=(1e-9,) * 4,
                                    moves=tuple(moves[:4]))
     path = tmp_path / "checkpoint.npz"
-    scene = FabricScene(3, 3)
+    scene = FabricScene(3, 3, elements_per_loop=16)
     curl_module._save_checkpoint(path, scene, state, 0.9, 0.1, [], None, partial)
     partial = curl_module.load_checkpoint(path, scene, model)[4]
     assert partial.moves == tuple(moves[:4])
@@ -377,9 +397,9 @@ def test_the_mirrored_swatch_relaxes_through_the_mirrored_states():
     mirror images of the original's states, contact and friction active.
     Measured 9e-8 mm after 60 steps (1.2e-11 after 15: the line search's
     branches amplify round-off); tolerance 1e-6 r."""
-    scene = FabricScene(4, 4, alpha=0.05)
+    scene = FabricScene(4, 4, elements_per_loop=16, alpha=0.05)
     model, a = _contact_rounds(scene)
-    mirrored, b = _contact_rounds(FabricScene(4, 4, alpha=0.05, mirror=True))
+    mirrored, b = _contact_rounds(FabricScene(4, 4, elements_per_loop=16, alpha=0.05, mirror=True))
     assert model.contact_report(a.state).active_pairs > 0
     assert len(model.contact_model.anchors.ends) > 0
     x = model.assembly.initial_positions()[:, 0]
@@ -392,7 +412,7 @@ def test_a_checkpoint_from_before_a_scene_field_existed_resumes_with_its_default
     (its JSON lacks the key) ran with the field's default and resumes as
     such, while one with another value of any field is refused."""
     from knitfem.scenes import curl as curl_module
-    scene = FabricScene(3, 4)
+    scene = FabricScene(3, 4, elements_per_loop=16)
     model, _, _ = build(scene)
     path = tmp_path / "checkpoint.npz"
     curl_module._save_checkpoint(path, scene, model.initial_state(), 0.3, 0.1, [], None)
@@ -404,7 +424,7 @@ def test_a_checkpoint_from_before_a_scene_field_existed_resumes_with_its_default
     state, lam, dlam, _, partial = curl_module.load_checkpoint(path, scene, model)
     assert (lam, dlam, partial) == (0.3, 0.1, None)
     with pytest.raises(ValueError, match="--resume: .* other parameters"):
-        curl_module.load_checkpoint(path, FabricScene(3, 4, mirror=True), model)
+        curl_module.load_checkpoint(path, FabricScene(3, 4, elements_per_loop=16, mirror=True), model)
 
 
 @pytest.mark.parametrize("move, settled", [(0.0, True), (0.5, False)])
@@ -415,7 +435,7 @@ def test_an_answer_whose_friction_did_not_settle_says_so(monkeypatch, move, sett
     anchors only, and it says so (friction_settled False, the last round's
     move) instead of passing for settled."""
     from knitfem.beam.model import BeamState
-    model, _, _ = build(FabricScene(3, 3))
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
     r = model.rods[0].section.radius
 
     class Result:
@@ -439,7 +459,7 @@ def test_extra_final_rounds_survive_a_resume(monkeypatch, tmp_path):
     resumed must go on like the uninterrupted one, not fail for want of a
     history and restart the increment smaller."""
     from knitfem.scenes import curl as curl_module
-    model, _, _ = build(FabricScene(3, 3))
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
     state = model.initial_state()
     residuals = [1e-2 * 0.3 ** k for k in range(20)]      # converged in round 13
     _scripted_rounds(monkeypatch, residuals)
@@ -448,7 +468,7 @@ def test_extra_final_rounds_survive_a_resume(monkeypatch, tmp_path):
     assert result is not None and inc.iterations == 13
     partial = fabric_relax.Partial(1.0, state, 8, 8, np.inf, 0.0, ends=tuple(residuals[:8]))
     path = tmp_path / "checkpoint.npz"
-    scene = FabricScene(3, 3)
+    scene = FabricScene(3, 3, elements_per_loop=16)
     curl_module._save_checkpoint(path, scene, state, 0.9, 0.1, [], None, partial)
     partial = curl_module.load_checkpoint(path, scene, model)[4]
     assert partial.ends == tuple(residuals[:8])
@@ -466,7 +486,7 @@ def test_a_checkpoint_from_before_the_corotated_friction_resumes_as_fixed_planes
     friction half-way."""
     import json as _json
     from knitfem.scenes.curl import _save_checkpoint, load_checkpoint
-    old = FabricScene(3, 4, alpha=0.05, corotated_friction=False)
+    old = FabricScene(3, 4, elements_per_loop=16, alpha=0.05, corotated_friction=False)
     model, _, _ = build(old)
     path = tmp_path / "checkpoint.npz"
     _save_checkpoint(path, old, model.initial_state(), 0.0, 0.1, [], model.contact_model)
@@ -477,4 +497,4 @@ def test_a_checkpoint_from_before_the_corotated_friction_resumes_as_fixed_planes
     np.savez(path, **data)
     assert load_checkpoint(path, old, model)[1] == 0.0
     with pytest.raises(ValueError, match="other parameters"):
-        load_checkpoint(path, FabricScene(3, 4, alpha=0.05), model)
+        load_checkpoint(path, FabricScene(3, 4, elements_per_loop=16, alpha=0.05), model)

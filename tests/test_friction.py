@@ -256,7 +256,7 @@ def _swatch_touching():
     yarns pressed onto their crossings, friction anchored."""
     from knitfem.scenes import fabric_relax
     from knitfem.scenes.fabric import FabricScene, Homotopy, build
-    scene = FabricScene(3, 3, alpha=0.05)
+    scene = FabricScene(3, 3, elements_per_loop=16, alpha=0.05)
     model, _, _ = build(scene)
     Homotopy(model, scene.alpha).apply(0.3)
     state = model.initial_state()

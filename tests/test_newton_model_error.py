@@ -17,7 +17,7 @@ import newton_model_error as probe  # noqa: E402
 def _sliding_state():
     """A 3 x 3 swatch at alpha 0.2 a few steps into a friction round: contacts
     pressed, friction anchored at the round's start and slipping since."""
-    scene = FabricScene(3, 3, alpha=0.2)
+    scene = FabricScene(3, 3, elements_per_loop=16, alpha=0.2)
     model, _, _ = build(scene)
     Homotopy(model, scene.alpha).apply(0.1)
     first, _ = fabric_relax._round(model, model.initial_state(), 0.1, 1e-8, 25)

@@ -1,7 +1,7 @@
 """Fabric curling: relax a plain-knit swatch and classify its curl (paper Sec. 6).
 
     knitfem curl --nw 10 --nc 35 [--alpha 0.2] [--w 4 --c 3 --radius 0.4]
-                 [--elements-per-loop 16] [--gj-over-ei X] [--ea-over-ei X]
+                 [--elements-per-loop 24] [--gj-over-ei X] [--ea-over-ei X]
                  [--friction 0.3] [--bindoff-stiffness 10] [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet]
 
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .fabric import FabricScene, Homotopy, build
+from .fabric import FabricScene, Homotopy, build, yarn_axial_strain
 from .fabric_relax import FabricRelaxationError, relax_fabric
 
 VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
@@ -200,6 +200,8 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         "relax_s": float(sum(inc.seconds for inc in eq.increments)),
         "scene": scene.as_dict(), "start_gap_over_d": info["start_gap_over_d"],
         "geometry_inflation": info["inflation"],
+        # the pre-stretch the knit yarn still holds at the answer (or last equilibrium)
+        "yarn_axial_strain": dict(zip(("median", "max"), yarn_axial_strain(model, eq.state))),
         "error": None if failure is None else str(failure),
     }
     if out is not None:
