@@ -19,11 +19,11 @@ the relative residual), and the node where it is largest.  A term whose
 model error is of the size of its force change is what the quadratic model
 does not see over the step (contacts appearing or going deep, stick turning
 to slip); the minimiser then cuts the step or lands at a larger residual.
-Writes ``DIR/model_error.csv`` and ``DIR/model_error.md``; prints the table.
+Writes ``DIR/model_error_<nw>x<nc>.csv`` and ``.md``; prints the table.  The
+step is the minimiser's exact-Hessian step (its PSD-model fallback is not used).
 """
 import argparse
 import csv
-import json
 from pathlib import Path
 
 import numpy as np
@@ -32,10 +32,10 @@ from scipy import sparse
 from knitfem.beam.assembly import block_matrix
 from knitfem.beam.element import element_forces
 from knitfem.beam.energy import EnergyProblem
-from knitfem.scenes.curl import load_checkpoint
-from knitfem.scenes.fabric import FabricScene, Homotopy, build
+from knitfem.scenes.curl import checkpoint_scene, load_checkpoint
+from knitfem.scenes.fabric import Homotopy, build
 from knitfem.solve.factor import Cholesky, NotPositiveDefinite
-from knitfem.solve.minimize import minimize
+from knitfem.solve.minimize import RelaxationError, minimize
 
 
 class _Recording(EnergyProblem):
@@ -96,8 +96,7 @@ def node_name(model, free_index):
 
 
 def probe(checkpoint, steps, samples):
-    data = np.load(checkpoint)
-    scene = FabricScene(**json.loads(str(data["scene"])))
+    scene = checkpoint_scene(np.load(checkpoint))
     model, _, _ = build(scene)
     loaded = load_checkpoint(Path(checkpoint), scene, model)
     state, lam, _, _, partial = loaded
@@ -111,7 +110,10 @@ def probe(checkpoint, steps, samples):
     if contact is not None:
         contact.anchor_friction(state.x, state.q)
     problem = _Recording(model, 1.0)
-    minimize(problem, state, tol=0.0, max_iter=steps, raise_on_failure=False)
+    try:
+        minimize(problem, state, tol=0.0, max_iter=steps, raise_on_failure=False)
+    except RelaxationError as err:     # a stall: sample the states it passed
+        print(f"the round stalled after {len(problem.states)} states: {err}")
     weight = problem.weight
     rows = []
     picks = np.unique(np.linspace(0, len(problem.states) - 1, samples).round().astype(int))

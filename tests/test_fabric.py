@@ -166,7 +166,8 @@ def test_a_failed_relaxation_says_so_and_keeps_its_last_equilibrium(tmp_path):
     failed, no curl claimed (the half-relaxed shape kept apart, labelled with
     its homotopy lam), and the state written (.vtu, JSON) for inspection."""
     from knitfem.scenes.curl import curl
-    summary = curl(FabricScene(3, 4, elements_per_loop=16), out=tmp_path, render=False, progress=False,
+    summary = curl(FabricScene(3, 4, elements_per_loop=16), out=tmp_path, render=False,
+                   progress=False,
                    relax_options=dict(iterations=1, max_rounds=1, dlam_min=0.05))
     assert summary["converged"] is False and summary["curl"] is None
     assert "relaxation failed near homotopy lam" in summary["error"]
@@ -423,8 +424,10 @@ def test_a_checkpoint_from_before_a_scene_field_existed_resumes_with_its_default
     np.savez(path, **data)
     state, lam, dlam, _, partial = curl_module.load_checkpoint(path, scene, model)
     assert (lam, dlam, partial) == (0.3, 0.1, None)
-    with pytest.raises(ValueError, match="--resume: .* other parameters"):
-        curl_module.load_checkpoint(path, FabricScene(3, 4, elements_per_loop=16, mirror=True), model)
+    with pytest.raises(ValueError, match=r"--resume: .* other parameters \(mirror: checkpoint "
+                                         r"False, given True\)"):
+        curl_module.load_checkpoint(path, FabricScene(3, 4, elements_per_loop=16, mirror=True),
+                                    model)
 
 
 @pytest.mark.parametrize("move, settled", [(0.0, True), (0.5, False)])

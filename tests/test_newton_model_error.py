@@ -31,6 +31,10 @@ def test_terms_add_up_to_the_energy_problem_and_each_hessian_is_its_forces_deriv
     _, g, H, _ = problem.evaluate(state, True)
     terms = probe.term_forces(problem, state)
     assert {"beam", "ties", "contact", "friction"} <= set(terms)
+    # each name is its term: ties join 2 nodes' translations, a contact pair
+    # 3 + 3, a friction anchor adds the 4 segment ends' rotations
+    widths = {name: dofs.shape[1] for name, dofs, *_ in problem.groups(state, False)[1]}
+    assert widths == {"ties": 6, "contact": 18, "friction": 30}
     total_f = sum(f for f, _ in terms.values())[problem.free]
     total_H = sum(K for _, K in terms.values())
     scale = np.abs(g).max()

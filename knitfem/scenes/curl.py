@@ -53,6 +53,17 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
     os.replace(tmp, path)
 
 
+def checkpoint_scene(data):
+    """The :class:`FabricScene` a checkpoint (its loaded npz) was written for."""
+    # a checkpoint written before a scene field existed ran with its default
+    defaults = {f.name: f.default for f in fields(FabricScene) if f.default is not MISSING}
+    # ... except where the default changed since: friction planes fixed at the
+    # round's start until the co-rotated friction became the default (the
+    # elements per loop have always been stored)
+    defaults["corotated_friction"] = False
+    return FabricScene(**{**defaults, **json.loads(str(data["scene"]))})
+
+
 def load_checkpoint(path, scene, model):
     """(state, lam, dlam, increments, partial) from a checkpoint of the same
     scene, or None; the contact model gets the equilibrium's friction anchors."""
@@ -62,15 +73,12 @@ def load_checkpoint(path, scene, model):
     if not path.exists():
         return None
     data = np.load(path)
-    # a checkpoint written before a scene field existed ran with its default
-    defaults = {f.name: f.default for f in fields(FabricScene) if f.default is not MISSING}
-    # ... except where the default changed since: friction planes fixed at the
-    # round's start until the co-rotated friction became the default
-    defaults["corotated_friction"] = False
-    saved = {**defaults, **json.loads(str(data["scene"]))}
-    if json.dumps(saved, sort_keys=True) != json.dumps(scene.as_dict(), sort_keys=True):
-        raise ValueError(f"--resume: {path} holds a run with other parameters; remove it or "
-                         "give the same options")
+    saved, given = checkpoint_scene(data).as_dict(), scene.as_dict()
+    if json.dumps(saved, sort_keys=True) != json.dumps(given, sort_keys=True):
+        differ = ", ".join(f"{k}: checkpoint {saved[k]!r}, given {given[k]!r}"
+                           for k in sorted(saved) if saved[k] != given[k])
+        raise ValueError(f"--resume: {path} holds a run with other parameters ({differ}); "
+                         "remove it or give the same options")
 
     def friction(prefix):
         if prefix + "anchor_key" not in data.files:

@@ -24,8 +24,10 @@ ITERATIONS = 2600                 # minimisation iterations of a 5 x 5 relaxatio
 
 
 def unknowns(v):
-    """Beam unknowns: 6 per node, elements_per_loop nodes per loop, plus turns and bind-off."""
-    return 6 * v.elements_per_loop * (v.nw * v.nc + 2 * v.nw + v.nc)
+    """Beam unknowns: 6 per node, elements_per_loop nodes per loop, plus turns and bind-off
+    (the bspline model: its 16 segments per loop, as the beam's 16 once were)."""
+    per_loop = v.elements_per_loop if getattr(v, "model", "beam") == "beam" else 16
+    return 6 * per_loop * (v.nw * v.nc + 2 * v.nw + v.nc)
 
 
 def seconds(v):
@@ -80,7 +82,8 @@ OPTIONS = OptionSet(
     Real("--w", 4.0, "(0, 1000]", help="wale length (loop width), mm"),
     Real("--c", 3.0, "(0, 1000]", help="course length (loop height), mm"),
     Real("--radius", 0.4, "(0, 1000]", help="yarn radius, mm"),
-    Integer("--elements-per-loop", 24, "[8, 64]", help="beam elements per loop (16 locks the yarn's sliding: README)",
+    Integer("--elements-per-loop", 24, "[8, 64]",
+            help="beam elements per loop (16 locks the yarn's sliding: README)",
             when=("model", "beam", "the bspline model has 16 B-spline segments per loop")),
     Real("--gj-over-ei", 2.0 / 3.0, "[1e-06, 100]", when=_NO_TWIST,
          help="torsional over bending stiffness"),
