@@ -31,7 +31,7 @@ from scipy import sparse
 
 from knitfem.beam.assembly import block_matrix
 from knitfem.beam.element import element_forces
-from knitfem.beam.energy import EnergyProblem
+from knitfem.beam.energy import EnergyProblem, symmetric_part
 from knitfem.scenes.curl import checkpoint_scene, load_checkpoint
 from knitfem.scenes.fabric import Homotopy, build
 from knitfem.solve.factor import Cholesky, NotPositiveDefinite
@@ -60,11 +60,10 @@ def term_forces(problem, state):
     _, res, Ke = element_forces(state.x[a], state.x[b], state.q[a], state.q[b], asm.h,
                                 asm.gamma0, asm.kappa0, asm.CN, asm.CM, True)
     terms = {"beam": (np.bincount(asm.element_dofs.T.ravel(), res.ravel(), asm.n_dofs),
-                      asm.scatter(0.5 * (Ke + np.swapaxes(Ke, 1, 2)), problem.free))}
-    for name, dofs, fe, Kb, psd in EnergyProblem.groups(problem, state, True)[1]:
-        symmetric = Kb if hasattr(Kb, "J") else 0.5 * (Kb + np.swapaxes(Kb, 1, 2))
+                      asm.scatter(symmetric_part(Ke), problem.free))}
+    for name, dofs, fe, Kb, _ in EnergyProblem.groups(problem, state, True)[1]:
         f = np.bincount(dofs.ravel(), np.ravel(fe), minlength=asm.n_dofs)
-        K = block_matrix(dofs, symmetric, asm.n_dofs, problem.free)
+        K = block_matrix(dofs, symmetric_part(Kb), asm.n_dofs, problem.free)
         if name in terms:           # the co-rotated friction's geometric part
             f, K = f + terms[name][0], K + terms[name][1]
         terms[name] = (f, K)

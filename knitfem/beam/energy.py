@@ -24,6 +24,12 @@ from .assembly import DOFS_PER_NODE, block_matrix
 from .element import ElementTurnError, element_forces
 
 
+def symmetric_part(K):
+    """The symmetric part of per-block matrices (m, w, w); factored blocks
+    (:class:`knitfem.contact.friction.Factored`) are symmetric as they are."""
+    return K if hasattr(K, "J") else 0.5 * (K + np.swapaxes(K, 1, 2))
+
+
 class EnergyProblem:
     """Total potential of ``model`` at load factor ``lam`` on its free dofs."""
 
@@ -81,14 +87,14 @@ class EnergyProblem:
         blocks = []                 # (dofs, matrices) for the PSD model
         convex = None               # assembled groups that are PSD by construction
         if hessian:
-            H = asm.scatter(0.5 * (Ke + np.swapaxes(Ke, 1, 2)), self.free)
+            H = asm.scatter(symmetric_part(Ke), self.free)
         energies, groups = self.groups(state, hessian)
         for Ep in energies:
             E += Ep
         for _, dofs, fe, Kb, psd in groups:
             f += np.bincount(dofs.ravel(), np.ravel(fe), minlength=asm.n_dofs)
             if hessian and len(dofs):
-                symmetric = Kb if hasattr(Kb, "J") else 0.5 * (Kb + np.swapaxes(Kb, 1, 2))
+                symmetric = symmetric_part(Kb)
                 # friction groups (psd True or None) keep their dofs for a round
                 Kg = block_matrix(dofs, symmetric, asm.n_dofs, self.free,
                                   keep_pattern=psd is not False)
