@@ -1,7 +1,7 @@
 """Fabric curling: relax a plain-knit swatch and classify its curl (paper Sec. 6).
 
     knitfem curl --nw 10 --nc 35 [--alpha 0.2] [--w 4 --c 3 --radius 0.4]
-                 [--elements-per-loop 24] [--gj-over-ei X] [--ea-over-ei X]
+                 [--elements-per-loop 32] [--gj-over-ei X] [--ea-over-ei X]
                  [--friction 0.3] [--bindoff-stiffness 10] [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet]
 

@@ -1,7 +1,7 @@
 """``knitfem curl``: its options, their checks and cost estimate, and the run.
 
     knitfem curl --nw 10 --nc 35 [--model beam|bspline] [--alpha 0.2]
-                 [--w 4 --c 3 --radius 0.4] [--elements-per-loop 24]
+                 [--w 4 --c 3 --radius 0.4] [--elements-per-loop 32]
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
                  [--out DIR] [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
@@ -82,8 +82,9 @@ OPTIONS = OptionSet(
     Real("--w", 4.0, "(0, 1000]", help="wale length (loop width), mm"),
     Real("--c", 3.0, "(0, 1000]", help="course length (loop height), mm"),
     Real("--radius", 0.4, "(0, 1000]", help="yarn radius, mm"),
-    Integer("--elements-per-loop", 24, "[8, 64]",
-            help="beam elements per loop (16 locks the yarn's sliding: README)",
+    Integer("--elements-per-loop", 32, "[8, 64]",
+            help="beam elements per loop (16 locks the yarn's sliding, 24 misses a 10 x 10's "
+                 "curl type: README)",
             when=("model", "beam", "the bspline model has 16 B-spline segments per loop")),
     Real("--gj-over-ei", 2.0 / 3.0, "[1e-06, 100]", when=_NO_TWIST,
          help="torsional over bending stiffness"),
