@@ -83,8 +83,7 @@ OPTIONS = OptionSet(
     Real("--c", 3.0, "(0, 1000]", help="course length (loop height), mm"),
     Real("--radius", 0.4, "(0, 1000]", help="yarn radius, mm"),
     Integer("--elements-per-loop", 32, "[8, 64]",
-            help="beam elements per loop (16 locks the yarn's sliding, 24 misses a 10 x 10's "
-                 "curl type: README)",
+            help="beam elements per loop (16 locks the yarn's sliding: README)",
             when=("model", "beam", "the bspline model has 16 B-spline segments per loop")),
     Real("--gj-over-ei", 2.0 / 3.0, "[1e-06, 100]", when=_NO_TWIST,
          help="torsional over bending stiffness"),
