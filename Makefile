@@ -25,7 +25,7 @@ demo: $(STAMP) system-deps
 	$(VENV)/bin/python studies/popup_fig4a.py --out $(OUT)/popup_fig4a
 
 test: $(STAMP) system-deps
-	$(VENV)/bin/python -m pytest -q
+	$(VENV)/bin/python -m pytest -q -n auto --dist loadfile
 
 gallery: $(STAMP) system-deps
 	$(VENV)/bin/knitfem gallery --out $(OUT)/gallery
