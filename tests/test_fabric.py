@@ -63,7 +63,8 @@ def test_the_default_discretisation_lets_the_yarn_slide_through_its_crossings():
     yarn slides through its crossings), not stay in the yarn as strain.  16
     elements per loop lock that sliding: the same 3 x 3 stretch stage ends
     with a median axial strain of 2.3 % and energy 79; 24 per loop 2.7e-5 and
-    0.19 (measured 2026-12-03; 5 x 5: 2.4 % / 218 against 4.3e-5 / 0.66).  The
+    0.19, 32 (the default) 2.2e-5 and 0.20 (measured 2026-12-03; 5 x 5: 2.4 % /
+    218 at 16 against 4.3e-5 / 0.66 at 24).  The
     bound, 0.2 % median, is a tenth of the locked strain and 8 % of the
     1/(1 - alpha) - 1 = 25 % the yarn would hold if nothing slid."""
     from knitfem.scenes.fabric import yarn_axial_strain
