@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from knitfem.beam.energy import EnergyProblem
-from knitfem.scenes.fabric import FabricScene, Homotopy, build
+from knitfem.scenes.fabric import FabricScene, Homotopy, build, yarn_axial_strain
 from knitfem.scenes import fabric_relax
 
 # The scenes here take 16 elements per loop, not the default 32: the tests check
@@ -34,7 +34,6 @@ def test_knitted_shape_is_an_equilibrium_at_the_start_of_the_homotopy():
 def test_yarn_axial_strain_is_the_knitted_length_over_the_shrunk_rest_length():
     """At the knitted shape the strain is 0 at lam = 0 and 1/(1 - alpha) - 1
     once the rest length has shrunk (lam >= the stretch stage's end)."""
-    from knitfem.scenes.fabric import yarn_axial_strain
     scene = FabricScene(3, 3, elements_per_loop=16, alpha=0.2)
     model, _, _ = build(scene)
     state, homotopy = model.initial_state(), Homotopy(model, scene.alpha)
@@ -67,7 +66,6 @@ def test_the_default_discretisation_lets_the_yarn_slide_through_its_crossings():
     218 at 16 against 4.3e-5 / 0.66 at 24).  The
     bound, 0.2 % median, is a tenth of the locked strain and 8 % of the
     1/(1 - alpha) - 1 = 25 % the yarn would hold if nothing slid."""
-    from knitfem.scenes.fabric import yarn_axial_strain
     scene = FabricScene(3, 3, alpha=0.2)
     model, _, _ = build(scene)
     eq = fabric_relax.relax_fabric(model, _StretchStage(Homotopy(model, scene.alpha)),
