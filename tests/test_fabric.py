@@ -45,6 +45,31 @@ def test_yarn_axial_strain_is_the_knitted_length_over_the_shrunk_rest_length():
         assert abs(median - 0.25) < 1e-12 and abs(largest - 0.25) < 1e-12
 
 
+def test_bindoff_prestretch_shrinks_the_helices_rest_length_and_keeps_their_turns():
+    """With ``bindoff_prestretch`` the bind-off helices' axial strain at the
+    knitted shape is 1/(1 - alpha) - 1 once the stretch stage is over (0
+    without: they keep their knitted length), their natural curvature per
+    knitted length is the knitted helix's at every lam, and the knit yarn's
+    homotopy is the same either way."""
+    natural = {}
+    for bindoff in (False, True):
+        scene = FabricScene(3, 3, elements_per_loop=16, alpha=0.2, bindoff_prestretch=bindoff)
+        model, _, _ = build(scene)
+        asm, state = model.assembly, model.initial_state()
+        helix = asm.rod_of_element != 0
+        kappa_knitted = asm.kappa0[helix].copy()
+        homotopy = Homotopy(model, scene.alpha, bindoff=scene.bindoff_prestretch)
+        for lam in (0.0, 0.15, 0.3, 1.0):
+            homotopy.apply(lam)
+            gamma = asm.strains(state.x, state.q)[0]
+            strain = gamma[helix, 0] / asm.gamma0[helix, 0] - 1.0
+            shrink = min(1.0, lam / homotopy.split) * scene.alpha if bindoff else 0.0
+            assert np.allclose(strain, 1.0 / (1.0 - shrink) - 1.0, rtol=0, atol=1e-12)
+            assert np.array_equal(asm.kappa0[helix], kappa_knitted)
+        natural[bindoff] = (asm.gamma0[~helix].copy(), asm.kappa0[~helix].copy())
+    assert all(np.array_equal(a, b) for a, b in zip(natural[False], natural[True]))
+
+
 class _StretchStage:
     """The homotopy's first stage only (the rest length shrinks, the loops keep
     their knitted shape): lam = 1 here is the stage's end."""
@@ -220,6 +245,8 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
                        (["curl", "--inflation", "-0.1"], "--inflation"),
                        (["curl", "--radius", "0.45", "--inflation", "0.2"], "--inflation"),
                        (["curl", "--model", "bspline", "--inflation", "0.1"], "--inflation"),
+                       (["curl", "--model", "bspline", "--bindoff-prestretch"],
+                        "--bindoff-prestretch"),
                        (["curl", "--nw", "55", "--nc", "35"], "--no-limits")):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()

@@ -2,7 +2,8 @@
 
     knitfem curl --nw 10 --nc 35 [--alpha 0.2] [--w 4 --c 3 --radius 0.4]
                  [--elements-per-loop 32] [--gj-over-ei X] [--ea-over-ei X]
-                 [--friction 0.3] [--bindoff-stiffness 10] [--out DIR]
+                 [--friction 0.3] [--bindoff-stiffness 10] [--bindoff-prestretch]
+                 [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet]
 
 :func:`curl` builds the scene (:mod:`knitfem.scenes.fabric`), relaxes it
@@ -119,7 +120,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     from ..analysis.curl import swatch_curl
     t0 = time.perf_counter()
     model, swatch, info = build(scene)
-    homotopy = Homotopy(model, scene.alpha)
+    homotopy = Homotopy(model, scene.alpha, bindoff=scene.bindoff_prestretch)
     out = Path(out) if out is not None else None
     checkpoint_path = out / "checkpoint.npz" if out is not None else None
     start = None

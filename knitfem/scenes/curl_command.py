@@ -4,7 +4,7 @@
                  [--w 4 --c 3 --radius 0.4] [--elements-per-loop 32]
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
-                 [--out DIR] [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
+                 [--bindoff-prestretch] [--out DIR] [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model: ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
 seconds; refused above the library's time limit unless ``--no-limits``.
@@ -66,11 +66,14 @@ def _resume_needs_out(v):
 RESUME = Check(_resume_needs_out)     # knitfem curl's own (not a sweep study's --resume)
 
 
-def _frame_needs_beam(v):
+def _beam_only_flags(v):
     frame = getattr(v, "friction_frame", None)
     if frame is not None and getattr(v, "model", "beam") == "bspline":
         refuse("--friction-frame", "applies to --model beam only (the bspline model is "
                "frictionless)", frame)
+    if getattr(v, "bindoff_prestretch", False) and getattr(v, "model", "beam") == "bspline":
+        refuse("--bindoff-prestretch", "applies to --model beam only (the bspline bind-off "
+               "keeps its knitted length)", True)
 
 _NO_TWIST = ("model", "beam", "the bspline model has no torsional stiffness (no twist energy)")
 
@@ -102,7 +105,7 @@ OPTIONS = OptionSet(
          "as --elements-per-loop falls: give one to hold the knitted geometry fixed)"),
     Check(_yarn_fits),
     RESUME,
-    Check(_frame_needs_beam),
+    Check(_beam_only_flags),
     Budget("memory", memory, ("--nw", "--nc", "--elements-per-loop")),
     Budget("run time", seconds, ("--nw", "--nc", "--elements-per-loop")),
 )
@@ -134,6 +137,10 @@ def add_parser(subparsers):
                    help="beam: the friction forces' tangent planes turn with the master yarn "
                    "within a friction round (corotated, default) or stay those of the round's "
                    "start (anchor: the code before 2026-12-02)")
+    p.add_argument("--bindoff-prestretch", action="store_true",
+                   help="beam: the bind-off helices' rest length shrinks by --alpha with the "
+                   "knit yarn's (they keep their turns); default: they keep their knitted "
+                   "length and the knit edge ends narrower than its bind-off")
     return add_output_options(p, "folder: relaxation path, final .vtu, renders, checkpoint")
 
 
@@ -153,6 +160,7 @@ def run(args):
                                 ea_over_ei=args.ea_over_ei, gj_over_ei=args.gj_over_ei,
                                 bindoff_stiffness=args.bindoff_stiffness,
                                 friction=args.friction, inflation=args.inflation,
+                                bindoff_prestretch=args.bindoff_prestretch,
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
             summary = curl(scene, out=args.out, render=not args.no_render,

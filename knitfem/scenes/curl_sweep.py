@@ -32,7 +32,7 @@ COLUMNS = ("nw", "nc", "nw_over_nc", "model", "status", "curl",
 BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_stiffness",
                    "ea_over_ei", "max_time", "max_steps", "method", "rtol")
 BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiffness",
-                "ea_over_ei", "gj_over_ei", "friction", "inflation")
+                "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch")
 # what a point keeps of the model's summary (the rest is in its JSON file)
 KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "height", "height_over_width",
         "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",

@@ -87,6 +87,10 @@ class FabricScene:
     EI: float = 1.0                 # N mm^2 (nominal: only ratios matter)
     mirror: bool = False            # knitted from the other side (geometry.mirror_swatch)
     corotated_friction: bool = True    # friction planes turn with the master yarn in a round
+    # the bind-off helices' rest length shrinks by alpha with the knit yarn's
+    # (they keep their helix: the same turns over the shorter length); off, the
+    # knit edge ends narrower than its bind-off (see Homotopy)
+    bindoff_prestretch: bool = False
     # the radius inflation the swatch is knitted with (fraction); None: the
     # smallest multiple of 0.02 that keeps the contact clear (see build).  It
     # grows as the elements per loop fall (5 x 5: 0.12 at 16 per loop, 0.08 at
@@ -210,12 +214,20 @@ class Homotopy:
     slide freely (no contact carries load yet) and a 5 x 5 swatch needed
     120 iterations per 5 % of the path.  Strains are per reference (knitted)
     length: the rest-length change enters as the natural axial strain
-    1 - alpha and all stiffnesses per unit rest length."""
+    1 - alpha and all stiffnesses per unit rest length.
 
-    def __init__(self, model, alpha, split=0.3):
+    ``bindoff``: the bind-off helices' rest length shrinks with the knit's in
+    the stretch stage; their natural curvature per knitted length stays (the
+    same turns, one per stitch, over the shorter length).  Without it the
+    helices keep their knitted length while the knit under them shrinks, so a
+    bind-off edge is longer than the knit it closes and its helix buckles out
+    (the flared ends of a 10 x 35 tube: README)."""
+
+    def __init__(self, model, alpha, split=0.3, bindoff=False):
         asm = model.assembly
         self.assembly = asm
         self.knit = asm.rod_of_element == 0
+        self.shrinks = np.ones_like(self.knit) if bindoff else self.knit
         self.gamma_shape, self.kappa_shape = asm.gamma0.copy(), asm.kappa0.copy()
         self.CN, self.CM = asm.CN.copy(), asm.CM.copy()
         self.alpha = float(alpha)
@@ -227,9 +239,9 @@ class Homotopy:
         bend = max(0.0, (lam - self.split) / (1.0 - self.split))
         # energy per rest length h0 = s h: W = h/(2 s) C (strain - s e1)^2 per knitted length h
         s = 1.0 - stretch * self.alpha
-        gamma = self.gamma_shape[k] * s
-        gamma[:, 1:] *= 1.0 - bend
-        asm.gamma0[k] = gamma
+        shrinks = self.shrinks
+        asm.gamma0[shrinks] = self.gamma_shape[shrinks] * s
+        asm.CN[shrinks] = self.CN[shrinks] / s
+        asm.CM[shrinks] = self.CM[shrinks] / s
+        asm.gamma0[k, 1:] *= 1.0 - bend
         asm.kappa0[k] = (1.0 - bend) * self.kappa_shape[k]
-        asm.CN[k] = self.CN[k] / s
-        asm.CM[k] = self.CM[k] / s
