@@ -186,6 +186,10 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     summary = {
         "nw": scene.nw, "nc": scene.nc, "model": "beam", "alpha": scene.alpha, **fields_,
         "converged": bool(eq.converged), "residual": eq.residual, "stable": bool(eq.stable),
+        # the minimised potential at the answer (N mm: elastic, contact, and the
+        # last friction round's, ~0 once the friction settled)
+        "energy": (next((inc.energy for inc in reversed(eq.increments) if inc.accepted), None)
+                   if failure is None else None),
         "negative_eigenvalues": eq.negative_eigenvalues,
         "lowest_eigenvalue": eq.lowest_eigenvalue,
         "max_penetration_over_d": eq.max_penetration / (2.0 * scene.radius),

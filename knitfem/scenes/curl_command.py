@@ -4,7 +4,8 @@
                  [--w 4 --c 3 --radius 0.4] [--elements-per-loop 32]
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
-                 [--bindoff-prestretch] [--out DIR] [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
+                 [--bindoff-prestretch] [--paths default,coarse] [--out DIR]
+                 [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model: ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
 seconds; refused above the library's time limit unless ``--no-limits``.
@@ -31,7 +32,9 @@ def unknowns(v):
 
 
 def seconds(v):
-    return S_PER_DOF_ITERATION * unknowns(v) * ITERATIONS * (v.nw * v.nc / 25.0) ** 0.25
+    paths = getattr(v, "paths", None)
+    runs = len(paths.split(",")) if isinstance(paths, str) else 1      # one per --paths
+    return runs * S_PER_DOF_ITERATION * unknowns(v) * ITERATIONS * (v.nw * v.nc / 25.0) ** 0.25
 
 
 def memory(v):
@@ -74,6 +77,15 @@ def _beam_only_flags(v):
     if getattr(v, "bindoff_prestretch", False) and getattr(v, "model", "beam") == "bspline":
         refuse("--bindoff-prestretch", "applies to --model beam only (the bspline bind-off "
                "keeps its knitted length)", True)
+    paths = getattr(v, "paths", None)
+    if paths is not None:
+        from .curl_paths import SCHEDULES, parse_paths
+        if getattr(v, "model", "beam") == "bspline":
+            refuse("--paths", "applies to --model beam only (the bspline relaxation has no "
+                   "homotopy)", paths)
+        if parse_paths(paths) is None:
+            refuse("--paths", f"must list distinct schedules of {', '.join(SCHEDULES)}, "
+                   "comma-separated", paths)
 
 _NO_TWIST = ("model", "beam", "the bspline model has no torsional stiffness (no twist energy)")
 
@@ -116,8 +128,11 @@ def outputs(args):
     checkpoint and the relaxation path written so far."""
     name = f"curl_{args.nw}x{args.nc}"
     final = (f"{name}.vtu", f"{name}.json", f"{name}_*.png")
-    return final if args.resume else final + ("checkpoint.npz", "path/step_*.vtu",
-                                              "path/path.pvd")
+    run = ("checkpoint.npz", "path/step_*.vtu", "path/path.pvd")
+    if getattr(args, "paths", None) is not None:
+        # one folder per schedule; a finished path's answer is what a resume keeps
+        run += tuple(f"path_*/{f}" for f in final + run)
+    return final if args.resume else final + run
 
 
 def add_parser(subparsers):
@@ -137,6 +152,11 @@ def add_parser(subparsers):
                    help="beam: the friction forces' tangent planes turn with the master yarn "
                    "within a friction round (corotated, default) or stay those of the round's "
                    "start (anchor: the code before 2026-12-02)")
+    p.add_argument("--paths", default=None, metavar="SCHEDULES",
+                   help="beam: relax along each of these homotopy schedules (comma-separated: "
+                   "default, coarse, fine) into --out/path_<name>/ and report every answer; "
+                   "the swatch's curl is the lowest-energy converged, stable one's, "
+                   "curl_types the set (a knit held by friction can land on more than one)")
     p.add_argument("--bindoff-prestretch", action="store_true",
                    help="beam: the bind-off helices' rest length shrinks by --alpha with the "
                    "knit yarn's (they keep their turns); default: they keep their knitted "
@@ -163,8 +183,14 @@ def run(args):
                                 bindoff_prestretch=args.bindoff_prestretch,
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
-            summary = curl(scene, out=args.out, render=not args.no_render,
-                           progress=not args.quiet, resume=args.resume)
+            if args.paths is not None:
+                from .curl_paths import curl_paths, parse_paths
+                summary = curl_paths(scene, parse_paths(args.paths), out=args.out,
+                                     render=not args.no_render, progress=not args.quiet,
+                                     resume=args.resume)
+            else:
+                summary = curl(scene, out=args.out, render=not args.no_render,
+                               progress=not args.quiet, resume=args.resume)
         verdict = f"{summary['curl']} curl" if summary["curl"] is not None else \
             f"relaxation failed: {summary['error']}"
         write_summary(args, summary, f"{verdict}, converged {summary['converged']}, "

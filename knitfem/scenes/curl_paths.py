@@ -1,0 +1,86 @@
+"""One swatch relaxed along several homotopy schedules: the equilibria a
+path-dependent knit lands on (``knitfem curl --paths default,coarse``).
+
+A knit held by friction can have more than one curled equilibrium, and the
+relaxation's path picks one: the 10 x 10 at alpha 0.2 and 32 elements per loop
+relaxes to top/bottom curl with the default increments and to double curl with
+increments of 0.3 (README, "two equilibria").  One run then cannot say which
+curl the swatch has.  :func:`curl_paths` runs :func:`knitfem.scenes.curl.curl`
+once per schedule and reports every answer, the set of curl types found and
+which answer it takes as the swatch's (the lowest minimised potential among
+the converged, stable ones: with friction a hint, not a proof, of the global
+minimum; the potential includes the last friction round's, which is ~0 when
+the friction settled).
+"""
+import json
+from pathlib import Path
+
+# homotopy increments: first step and largest step (relax_fabric's dlam, dlam_max)
+SCHEDULES = {
+    "default": {"dlam": 0.1, "dlam_max": 0.25},
+    "coarse": {"dlam": 0.3, "dlam_max": 0.5},
+    "fine": {"dlam": 0.05, "dlam_max": 0.1},
+}
+
+# what each path's record keeps of its run's summary (the rest is in its folder)
+KEPT = ("curl", "edges_touch", "roll_deg", "curvature_x", "curvature_y", "energy",
+        "converged", "residual", "stable", "friction_settled", "iterations", "relax_s",
+        "error")
+
+
+def parse_paths(text):
+    """Schedule names from ``"default,coarse"``; None when ``text`` names an
+    unknown schedule, none, or one twice (which would only rerun a path)."""
+    names = [t.strip() for t in str(text).split(",") if t.strip()]
+    ok = names and all(n in SCHEDULES for n in names) and len(set(names)) == len(names)
+    return names if ok else None
+
+
+def choose(records):
+    """Index of the answer taken as the swatch's: the lowest energy among the
+    converged and stable paths, else None."""
+    ok = [i for i, r in enumerate(records) if r["converged"] and r["stable"]
+          and r["curl"] is not None and r["energy"] is not None]
+    return min(ok, key=lambda i: records[i]["energy"]) if ok else None
+
+
+def combine(summaries, names):
+    """The summary of several paths: the chosen path's own summary (or the
+    first path's when none converged stably, its ``curl`` then None) with
+    ``paths`` (one record per schedule), ``curl_types`` (the sorted set of
+    the converged, stable paths' curls), ``path_dependent`` and
+    ``chosen_path``."""
+    records = [{"schedule": n, **SCHEDULES[n], **{k: s.get(k) for k in KEPT}}
+               for n, s in zip(names, summaries)]
+    chosen = choose(records)
+    types = sorted({r["curl"] for r in records if r["converged"] and r["stable"]
+                    and r["curl"] is not None})
+    base = dict(summaries[chosen if chosen is not None else 0])
+    if chosen is None:
+        base["curl"] = None
+    base.update(paths=records, curl_types=types, path_dependent=len(types) > 1,
+                chosen_path=names[chosen] if chosen is not None else None)
+    return base
+
+
+def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=False):
+    """Relax ``scene`` along each schedule of ``names`` (keys of
+    :data:`SCHEDULES`) and return :func:`combine`'s summary.  With ``out``
+    each path writes into ``out/path_<name>/`` (its own checkpoint: ``resume``
+    continues each; a path whose summary is already there is not rerun) and
+    the combined summary goes to ``out/curl_<nw>x<nc>.json``."""
+    from .curl import curl
+    out = Path(out) if out is not None else None
+    summaries = []
+    for name in names:
+        folder = out / f"path_{name}" if out is not None else None
+        done = folder / f"curl_{scene.nw}x{scene.nc}.json" if folder is not None else None
+        if resume and done is not None and done.exists():
+            summaries.append(json.loads(done.read_text()))
+            continue
+        summaries.append(curl(scene, out=folder, render=render, progress=progress,
+                              resume=resume, relax_options=SCHEDULES[name]))
+    summary = combine(summaries, names)
+    if out is not None:
+        (out / f"curl_{scene.nw}x{scene.nc}.json").write_text(json.dumps(summary, indent=2))
+    return summary
