@@ -97,6 +97,11 @@ def parse(argv):
     parser.add_argument("--model", choices=MODELS, default="bspline",
                         help="bspline: the paper's B-spline yarns (default); beam: the "
                              "Simo-Reissner beam scene")
+    parser.add_argument("--paths", default=None, metavar="SCHEDULES",
+                        help="beam: relax every point along these homotopy schedules "
+                             "(default, coarse, fine; as knitfem curl --paths)")
+    parser.add_argument("--bindoff-prestretch", action="store_true", default=None,
+                        help="beam: the bind-off's rest length shrinks with the knit's")
     return parse_study("fabric_phase", parser, OPTIONS, argv)
 
 

@@ -85,6 +85,34 @@ def test_a_failed_beam_relaxation_is_a_failed_point_not_a_curl(tmp_path, monkeyp
         assert point_state(rows[0]) == "failed"
 
 
+def test_a_beam_point_along_several_paths_reports_the_set_of_curls(tmp_path, monkeypatch):
+    """With the curl option ``paths`` a beam point is relaxed along each
+    schedule (here a stand-in for curl() that writes what it writes): the
+    row's curl is the lowest-energy stable path's, ``curl_types`` the set,
+    and the point's .vtu that path's equilibrium."""
+    import json
+    from knitfem.scenes import curl as beam_curl
+
+    def fake(scene, *, out, relax_options=None, **kw):
+        coarse = relax_options == {"dlam": 0.3, "dlam_max": 0.5}
+        summary = {"nw": scene.nw, "nc": scene.nc, "curl": "double" if coarse else "top_bottom",
+                   "energy": 1.0 if coarse else 2.0, "converged": True, "stable": True,
+                   "roll_deg": {k: 0.0 for k in ("left", "right", "top", "bottom")},
+                   "error": None}
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "curl_3x4.json").write_text(json.dumps(summary))
+        (out / "curl_3x4.vtu").write_text(out.name)
+        return summary
+    monkeypatch.setattr(beam_curl, "curl", fake)
+    rows, sweep = phase_sweep([3], [4], tmp_path, model="beam",
+                              options={"paths": "default,coarse"}, workers=0, progress=False)
+    assert sweep.records[0]["status"] == "done"
+    assert rows[0]["curl"] == "double" and rows[0]["curl_types"] == "double|top_bottom"
+    point = next(p for p in (tmp_path / "points").iterdir() if p.is_dir())
+    assert (point / "curl.vtu").read_text() == "path_coarse"
+    assert json.loads((point / "curl.json").read_text())["path_dependent"] is True
+
+
 def test_options_of_the_other_model_are_refused(tmp_path):
     with pytest.raises(ValueError, match=r"\['friction'\] do not apply to model 'bspline'"):
         curl_point({"nw": 3, "nc": 4, "curl": {"friction": 0.3}}, tmp_path)
@@ -210,6 +238,9 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     (["--friction", "0.3"], "--friction does not apply to --model bspline"),
     (["--radius", "0.6"], "--radius must be below --w/8"),
     (["--workers", "-1"], "--workers must be an integer in [0, 1024]"),
+    (["--model", "beam", "--paths", "default,slow"], "--paths must list distinct schedules"),
+    (["--paths", "default"], "--paths applies to --model beam only"),
+    (["--bindoff-prestretch"], "--bindoff-prestretch applies to --model beam only"),
 ])
 def test_bad_options_are_one_line_naming_the_option_exit_2(tmp_path, capsys, args, message):
     with pytest.raises(SystemExit) as stop:

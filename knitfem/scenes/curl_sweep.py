@@ -13,6 +13,9 @@ Each point of the sweep (:mod:`knitfem.sweep`) is one curl relaxation,
   of a :class:`~knitfem.scenes.fabric.FabricScene`); a relaxation that fails
   (``FabricRelaxationError``, or an error in the summary) makes the point
   *failed* with the message: its last state is never reported as a curl.
+  With the option ``paths`` (e.g. ``"default,coarse"``) each point is relaxed
+  along those homotopy schedules (:mod:`knitfem.scenes.curl_paths`): the
+  point's curl is the chosen path's, ``curl_types`` the set found.
 
 :func:`phase_rows` flattens the sweep's records into one row per point
 (:data:`COLUMNS`), failed and unfinished points included with their
@@ -27,16 +30,18 @@ ROLLS = ("left", "right", "top", "bottom")
 COLUMNS = ("nw", "nc", "nw_over_nc", "model", "status", "curl",
            *(f"roll_{k}" for k in ROLLS), "curvature_x", "curvature_y", "height",
            "height_over_width", "loop_aspect", "edges_touch", "converged", "stable",
-           "friction_settled", "residual", "elapsed_s", "message", "error")
+           "friction_settled", "residual", "curl_types", "elapsed_s", "message", "error")
 # curl options of each model (the keys :func:`curl_point` passes on)
 BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_stiffness",
                    "ea_over_ei", "max_time", "max_steps", "method", "rtol")
 BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiffness",
-                "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch")
+                "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch",
+                "paths")
 # what a point keeps of the model's summary (the rest is in its JSON file)
 KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "height", "height_over_width",
         "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",
-        "iterations", "max_penetration_over_d", "directions_as_paper", "friction_settled")
+        "iterations", "max_penetration_over_d", "directions_as_paper", "friction_settled",
+        "curl_types", "path_dependent", "chosen_path")
 
 
 class CurlFailed(RuntimeError):
@@ -66,17 +71,30 @@ def _beam(nw, nc, options, out_dir):
     from .curl import curl
     from .fabric import FabricScene
     from .fabric_relax import FabricRelaxationError
-    scene = FabricScene(nw, nc, **_options(options, BEAM_OPTIONS, "beam"))
+    options = _options(options, BEAM_OPTIONS, "beam")
+    paths = options.pop("paths", None)
+    scene = FabricScene(nw, nc, **options)
     with tempfile.TemporaryDirectory(prefix="knitfem-beam-") as tmp:
         try:
-            summary = curl(scene, out=tmp, render=False, progress=False)
+            if paths is None:
+                summary = curl(scene, out=tmp, render=False, progress=False)
+            else:
+                from .curl_paths import curl_paths, parse_paths
+                names = parse_paths(paths)
+                if names is None:
+                    raise ValueError(f"curl option paths: unknown or repeated schedule in "
+                                     f"{paths!r}")
+                summary = curl_paths(scene, names, out=tmp, render=False, progress=False)
         except FabricRelaxationError as err:
             raise CurlFailed(f"FabricRelaxationError: {err}") from None
         if summary.get("error") is not None:       # the last state of a failed relaxation
             raise CurlFailed(f"FabricRelaxationError: {summary['error']}")
         name = f"curl_{nw}x{nc}"
-        for suffix in (".vtu", ".json"):          # the equilibrium, not the path's frames
-            shutil.copy(Path(tmp) / f"{name}{suffix}", Path(out_dir) / f"curl{suffix}")
+        shape = Path(tmp) if paths is None else \
+            Path(tmp) / f"path_{summary['chosen_path'] or names[0]}"
+        # the equilibrium, not the path's frames (and the combined summary)
+        shutil.copy(shape / f"{name}.vtu", Path(out_dir) / "curl.vtu")
+        shutil.copy(Path(tmp) / f"{name}.json", Path(out_dir) / "curl.json")
     summary["message"] = ""
     return summary
 
@@ -117,6 +135,8 @@ def _row(params, record):
         return row
     r = record["result"]
     row.update({k: r.get(k) for k in COLUMNS if k in r and k != "roll_deg"})
+    if r.get("curl_types") is not None:        # several paths: the set, one cell
+        row["curl_types"] = "|".join(r["curl_types"])
     for k in ROLLS:
         row[f"roll_{k}"] = (r.get("roll_deg") or {}).get(k)
     row["converged"] = bool(r.get("converged"))
