@@ -247,6 +247,8 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
                        (["curl", "--model", "bspline", "--inflation", "0.1"], "--inflation"),
                        (["curl", "--model", "bspline", "--bindoff-prestretch"],
                         "--bindoff-prestretch"),
+                       (["curl", "--tail-ties", "0"], "--tail-ties"),
+                       (["curl", "--model", "bspline", "--tail-ties", "2"], "--tail-ties"),
                        (["curl", "--nw", "55", "--nc", "35"], "--no-limits")):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()

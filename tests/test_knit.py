@@ -310,3 +310,27 @@ def test_bad_input_names_the_parameter_and_its_valid_range(kwargs, name):
     with pytest.raises(ValueError, match=rf"^{name} must") as err:
         plain_knit_swatch(**args)
     assert any(s in str(err.value) for s in ("(0, inf)", ">=", "<", "in ["))
+
+
+def test_tail_ties_hold_each_tail_end_or_its_last_points_by_their_two_nearest(swatch):
+    """One tie per tail end to the other yarn's nearest point (the default);
+    with ``tail_nodes`` n the last n points of each of the six tails, each
+    tied to the two nearest points of the other yarn; bad counts refused."""
+    from knitfem.geometry.knit import swatch_ties
+    one = swatch_ties(swatch)
+    assert len(one) == 6 and len(set(one)) == 6
+    knit = swatch.yarns[0].points
+    assert {(ya, pa) for ya, pa, _, _ in one} == {
+        (0, 0), (0, len(knit) - 1), (1, 0), (1, len(swatch.yarns[1].points) - 1),
+        (2, 0), (2, len(swatch.yarns[2].points) - 1)}
+    for ya, pa, yb, pb in one:
+        d = np.linalg.norm(swatch.yarns[yb].points - swatch.yarns[ya].points[pa], axis=1)
+        assert d[pb] == d.min() and yb != ya
+    two = swatch_ties(swatch, 2)
+    assert len(two) == 24 and len(set(two)) == 24 and set(one) <= set(two)
+    for ya, pa, yb, pb in two:
+        d = np.linalg.norm(swatch.yarns[yb].points - swatch.yarns[ya].points[pa], axis=1)
+        assert d[pb] <= np.partition(d, 1)[1]           # one of the two nearest
+    for bad in (0, 5, 1.5, True):
+        with pytest.raises(ValueError, match="tail_nodes must be an integer in"):
+            swatch_ties(swatch, bad)

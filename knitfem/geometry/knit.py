@@ -383,26 +383,39 @@ def mirror_swatch(swatch):
     return dataclasses.replace(swatch, yarns=tuple(mirrored(y) for y in swatch.yarns))
 
 
-def swatch_ties(swatch):
+def swatch_ties(swatch, tail_nodes=1):
     """Where a knitter weaves the tails in: (yarn_a, point_a, yarn_b, point_b)
     index pairs into the yarns' ``points`` to be held at their distance.  The
     knit yarn's first and last points are tied to the nearest point of the
     bottom and top bind-off, and each bind-off's two ends to the nearest point
     of the knit yarn (so no loop slides off a helix end).  Empty without
-    bind-off."""
+    bind-off.
+
+    ``tail_nodes`` > 1: the last ``tail_nodes`` points of every tail, each
+    tied to the two nearest points of the other yarn.  A distance tie at one
+    point lets the tail pivot about it (a soft swing the relaxation's Newton
+    model misses: README); a triangle of ties holds the tail's direction too."""
+    if isinstance(tail_nodes, bool) or not isinstance(tail_nodes, (int, np.integer)) \
+            or not 1 <= tail_nodes <= 4:
+        raise ValueError(f"tail_nodes must be an integer in [1, 4], got {tail_nodes!r}")
     if len(swatch.yarns) < 3:
         return []
     knit = swatch.yarns[0].points
 
-    def nearest(p, points):
-        return int(np.argmin(np.linalg.norm(points - p, axis=1)))
+    def nearest(p, points, k=1):
+        return np.argsort(np.linalg.norm(points - p, axis=1), kind="stable")[:k]
 
-    ties = [(0, 0, 1, nearest(knit[0], swatch.yarns[1].points)),
-            (0, len(knit) - 1, 2, nearest(knit[-1], swatch.yarns[2].points))]
+    ends = [(0, 0, 1), (0, len(knit) - 1, 2)]
     for k in (1, 2):
-        helix = swatch.yarns[k].points
-        for end in (0, len(helix) - 1):
-            ties.append((k, end, 0, nearest(helix[end], knit)))
+        ends += [(k, 0, 0), (k, len(swatch.yarns[k].points) - 1, 0)]
+    ties = []
+    for ya, end, yb in ends:
+        inward = 1 if end == 0 else -1
+        for j in range(tail_nodes):
+            p = end + inward * j
+            for q in nearest(swatch.yarns[ya].points[p], swatch.yarns[yb].points,
+                             1 if tail_nodes == 1 else 2):
+                ties.append((ya, p, yb, int(q)))
     return ties
 
 

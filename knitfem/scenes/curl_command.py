@@ -4,7 +4,8 @@
                  [--w 4 --c 3 --radius 0.4] [--elements-per-loop 32]
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
-                 [--bindoff-prestretch] [--paths default,coarse] [--out DIR]
+                 [--bindoff-prestretch] [--tail-ties 1] [--paths default,coarse]
+                 [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model: ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
@@ -110,6 +111,10 @@ OPTIONS = OptionSet(
          "last state is reported as not converged"),
     Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
          help="bind-off stiffness relative to the yarn's"),
+    Integer("--tail-ties", 1, "[1, 4]", when=("model", "beam", "the bspline scene ties "
+            "each tail at its end"), help="beam: points of each yarn tail tied into the other "
+            "yarn (1: its end; n > 1: its last n points, each to the two nearest, holding "
+            "the tail's direction)"),
     Real("--inflation", None, "[0, 0.5]", when=("model", "beam", "the bspline swatch is "
          "fitted to the knitted points as they are"),
          help="beam: radius inflation the swatch is knitted with, a fraction (default: the "
@@ -181,6 +186,7 @@ def run(args):
                                 bindoff_stiffness=args.bindoff_stiffness,
                                 friction=args.friction, inflation=args.inflation,
                                 bindoff_prestretch=args.bindoff_prestretch,
+                                tail_ties=args.tail_ties,
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
             if args.paths is not None:

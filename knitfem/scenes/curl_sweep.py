@@ -36,7 +36,7 @@ BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_st
                    "ea_over_ei", "max_time", "max_steps", "method", "rtol")
 BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiffness",
                 "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch",
-                "paths")
+                "tail_ties", "paths")
 # what a point keeps of the model's summary (the rest is in its JSON file)
 KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "height", "height_over_width",
         "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",

@@ -84,6 +84,9 @@ class FabricScene:
     per_diameter: int = 12
     slip: float = 0.02              # friction's stick slip, fraction of the radius
     ties: bool = True
+    # points of each tail tied (1: its end, to the nearest point; n > 1: its
+    # last n points, each to the two nearest: the tail's direction held too)
+    tail_ties: int = 1
     EI: float = 1.0                 # N mm^2 (nominal: only ratios matter)
     mirror: bool = False            # knitted from the other side (geometry.mirror_swatch)
     corotated_friction: bool = True    # friction planes turn with the master yarn in a round
@@ -121,7 +124,7 @@ def _model(scene, swatch):
                                           name="knit" if k == 0 else
                                           ("bindoff_bottom" if k == 1 else "bindoff_top")))
     if scene.ties:
-        for ya, pa, yb, pb in swatch_ties(swatch):
+        for ya, pa, yb, pb in swatch_ties(swatch, scene.tail_ties):
             model.tie(ya, pa, yb, pb)
     model.contact(factor=scene.penalty, regularisation=scene.regularisation,
                   per_diameter=scene.per_diameter, friction=scene.friction,
