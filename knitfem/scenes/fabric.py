@@ -19,11 +19,15 @@ building it; see README "Fabric curling"):
 * **Bind-off**: the helices keep their helix as natural shape ("helically
   bent rods"), ``bindoff_stiffness`` times the yarn's stiffness (the paper
   notes the bind-off's stiffness matters; with 1x they uncoil and the edge
-  loops slide off).
+  loops slide off).  Their length stays the knitted one unless
+  ``bindoff_prestretch`` (then the 10 x 35 rolls its top and bottom more
+  than a turn: a strong control of the curl, README).
 * **Tails tied in**: the knit yarn's two ends and each helix's two ends are
   tied (stiff springs at the layout distance) to the nearest point of the
   other yarn (:func:`knitfem.geometry.knit.swatch_ties`), as a knitter weaves
-  the tails in: a free tail lets the pre-stretch drain out.
+  the tails in: a free tail lets the pre-stretch drain out.  ``tail_ties`` n
+  > 1 ties each tail's last n points, each to the two nearest, so it cannot
+  pivot about one tie (22-25 % fewer steps on 4 x 4 and 5 x 5, 9 % on 10 x 10).
 * **Friction** mu (default 0.3, cotton on cotton): without it a frictionless
   knit of naturally straight yarn is not held together by anything but its
   topology, and it collapses (the courses slide together, then it tangles:
@@ -224,7 +228,8 @@ class Homotopy:
     same turns, one per stitch, over the shorter length).  Without it the
     helices keep their knitted length while the knit under them shrinks, so a
     bind-off edge is longer than the knit it closes and its helix buckles out
-    (the flared ends of a 10 x 35 tube: README)."""
+    (the suspected cause of a 10 x 35 tube's flared ends -- rejected: with the
+    shrink its top and bottom roll more than a full turn, README)."""
 
     def __init__(self, model, alpha, split=0.3, bindoff=False):
         asm = model.assembly
