@@ -171,6 +171,15 @@ def test_not_converged_points_are_hollow_and_failed_ones_crosses():
     (x0, x1), (y0, y1) = boundary.get_data()
     assert x0 == y0 == 0 and x1 / y1 == 2.0 and y1 >= 35
     plt.close(fig)
+    rows[0]["curl_types"] = "double|top_bottom"         # relaxed along several paths
+    fig, ax = phase_diagram(rows)
+    ring = [c for c in ax.collections if c.get_label().startswith("path dependent")]
+    assert len(ring) == 1 and ring[0].get_offsets().tolist() == [[rows[0]["nw"], rows[0]["nc"]]]
+    plt.close(fig)
+    rows[0]["curl_types"] = "double"
+    fig, ax = phase_diagram(rows)
+    assert not [c for c in ax.collections if c.get_label().startswith("path dependent")]
+    plt.close(fig)
     fig, (ax_h, ax_a) = phase_trends(rows, knitted_aspect=4 / 3)
     drawn = {c.get_label(): c for c in ax_h.collections}
     assert "failed / not run" not in drawn                          # no H for a failed point

@@ -95,6 +95,13 @@ def phase_diagram(rows, title=None):
     plt = _plt()
     fig, ax = plt.subplots(figsize=(8.6, 5.0))
     scatter_points(ax, rows, lambda r: r["nw"], lambda r: r["nc"], size=90)
+    # points relaxed along several paths (--paths) that landed on more than one
+    # curl: the marker is the chosen path's, the ring says it is not the only one
+    several = [r for r in rows if "|" in str(r.get("curl_types") or "")]
+    if several:
+        ax.scatter([r["nw"] for r in several], [r["nc"] for r in several], s=260,
+                   facecolors="none", edgecolors="tab:red", linewidths=1.4, zorder=2,
+                   label="path dependent: other paths\ngave another curl (curl_types)")
     nc_max = max(r["nc"] for r in rows)
     nw_max = max(r["nw"] for r in rows)
     top = 1.1 * max(nc_max, nw_max / BOUNDARY)
