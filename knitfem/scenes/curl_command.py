@@ -34,7 +34,11 @@ def unknowns(v):
 
 def seconds(v):
     paths = getattr(v, "paths", None)
-    runs = len(paths.split(",")) if isinstance(paths, str) else 1      # one per --paths
+    if paths is not None:                   # one run per schedule (checked before budgets)
+        from .curl_paths import parse_paths
+        runs = len(parse_paths(paths))
+    else:
+        runs = 1
     return runs * S_PER_DOF_ITERATION * unknowns(v) * ITERATIONS * (v.nw * v.nc / 25.0) ** 0.25
 
 

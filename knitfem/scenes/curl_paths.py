@@ -15,9 +15,11 @@ the friction settled).
 import json
 from pathlib import Path
 
+from .fabric_relax import DLAM, DLAM_MAX
+
 # homotopy increments: first step and largest step (relax_fabric's dlam, dlam_max)
 SCHEDULES = {
-    "default": {"dlam": 0.1, "dlam_max": 0.25},
+    "default": {"dlam": DLAM, "dlam_max": DLAM_MAX},
     "coarse": {"dlam": 0.3, "dlam_max": 0.5},
     "fine": {"dlam": 0.05, "dlam_max": 0.1},
 }
@@ -36,11 +38,15 @@ def parse_paths(text):
     return names if ok else None
 
 
+def _answer(record):
+    """A path that ended on a converged, stable, classified equilibrium."""
+    return record["converged"] and record["stable"] and record["curl"] is not None
+
+
 def choose(records):
     """Index of the answer taken as the swatch's: the lowest energy among the
     converged and stable paths, else None."""
-    ok = [i for i, r in enumerate(records) if r["converged"] and r["stable"]
-          and r["curl"] is not None and r["energy"] is not None]
+    ok = [i for i, r in enumerate(records) if _answer(r) and r["energy"] is not None]
     return min(ok, key=lambda i: records[i]["energy"]) if ok else None
 
 
@@ -53,8 +59,7 @@ def combine(summaries, names):
     records = [{"schedule": n, **SCHEDULES[n], **{k: s.get(k) for k in KEPT}}
                for n, s in zip(names, summaries)]
     chosen = choose(records)
-    types = sorted({r["curl"] for r in records if r["converged"] and r["stable"]
-                    and r["curl"] is not None})
+    types = sorted({r["curl"] for r in records if _answer(r)})
     base = dict(summaries[chosen if chosen is not None else 0])
     if chosen is None:
         base["curl"] = None

@@ -43,6 +43,9 @@ from ..beam.rotation import spatial_turn
 from ..solve.minimize import RelaxationError, minimize
 from ..solve.stability import inertia, lowest_scaled_eigenvalue
 
+# the homotopy's first increment and the largest it grows to (relax_fabric's defaults)
+DLAM, DLAM_MAX = 0.1, 0.25
+
 
 class FabricRelaxationError(RuntimeError):
     """The relaxation failed; ``state`` is the last equilibrium (at ``lam``),
@@ -219,8 +222,8 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
                              before + time.perf_counter() - t, True, moved)
 
 
-def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=0.1,
-                 dlam_max=0.25, dlam_min=1e-3, iterations=200, max_rounds=4, creep=None,
+def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=DLAM,
+                 dlam_max=DLAM_MAX, dlam_min=1e-3, iterations=200, max_rounds=4, creep=None,
                  progress=None, checkpoint=None, partial=None, increments=()):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
     to lam = 1 (see the module docstring).
