@@ -33,6 +33,7 @@ def test_no_stable_answer_means_no_curl():
                                   ["default", "coarse"])
     assert combined["curl"] is None and combined["chosen_path"] is None
     assert combined["curl_types"] == [] and not combined["path_dependent"]
+    assert "no path ended on a converged, stable equilibrium" in combined["error"]
 
 
 @pytest.mark.parametrize("text", ["defualt", "default,default", "", ","])

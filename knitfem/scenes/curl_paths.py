@@ -52,7 +52,8 @@ def choose(records):
 
 def combine(summaries, names):
     """The summary of several paths: the chosen path's own summary (or the
-    first path's when none converged stably, its ``curl`` then None) with
+    first path's when none converged stably, its ``curl`` then None and its
+    ``error`` saying why) with
     ``paths`` (one record per schedule), ``curl_types`` (the sorted set of
     the converged, stable paths' curls), ``path_dependent`` and
     ``chosen_path``."""
@@ -62,7 +63,13 @@ def combine(summaries, names):
     types = sorted({r["curl"] for r in records if _answer(r)})
     base = dict(summaries[chosen if chosen is not None else 0])
     if chosen is None:
+        # the first path's shape is not an answer: say so (a caller that sees
+        # "converged" alone would take it for one)
         base["curl"] = None
+        base["error"] = base.get("error") or (
+            f"no path ended on a converged, stable equilibrium (paths {', '.join(names)}: "
+            + ", ".join(f"converged {r['converged']}, stable {r['stable']}" for r in records)
+            + ")")
     base.update(paths=records, curl_types=types, path_dependent=len(types) > 1,
                 chosen_path=names[chosen] if chosen is not None else None)
     return base
