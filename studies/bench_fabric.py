@@ -17,7 +17,14 @@ and the sparse Cholesky factorisation of H + mu D (the solve of one step).
 ``knitfem curl`` run's checkpoint (a relaxed swatch carries thousands of
 friction anchors, the warm start almost none).  One BLAS / numba thread.
 ``--sizes ""`` measures checkpoints only.  ``--runs`` adds the wall time and iterations of
-finished ``knitfem curl`` runs (their ``curl_*.json``) to the table.
+finished ``knitfem curl`` runs (their ``curl_*.json``) to the table.  ``--steps N``
+(with ``--checkpoint``) also runs N whole iterations of the round a relaxation
+would run next (the friction re-anchored at the checkpoint's equilibrium, the
+homotopy at the increment under way) and reports wall and CPU seconds per
+iteration: the line-search trials, the retried factorisations and what is
+kept between iterations (broad phase, symbolic analysis) included, which the
+per-part medians above cannot show.  Run it with ``PYTHONPATH`` on another
+checkout for an A/B of the same iterations.
 
 Writes OUT/bench_fabric.json and OUT/bench_fabric.md.
 """
@@ -105,6 +112,32 @@ def measure(nw, nc, repeat, warm, checkpoint=None):
     return row
 
 
+def round_steps(checkpoint, steps):
+    """N iterations of the next friction round from a checkpoint (see the
+    module docstring): wall and CPU seconds per iteration, and the energy
+    and residual reached (an A/B of two codes must reach the same)."""
+    data = np.load(checkpoint)
+    scene = FabricScene(**json.loads(str(data["scene"])))
+    model, _, info = build(scene)
+    state, lam = load_checkpoint(Path(checkpoint), scene, model)[:2]
+    if "partial_numbers" in data.files:     # the increment under way
+        lam = float(data["partial_numbers"][0])
+    elif lam < 1.0:                         # the next one
+        lam = min(1.0, lam + float(data["dlam"]))
+    Homotopy(model, scene.alpha).apply(lam)
+    model.contact_model.anchor_friction(state.x, state.q)
+    problem = EnergyProblem(model, 1.0)
+    minimize(problem, state, tol=0.0, max_iter=1, raise_on_failure=False)   # compile, caches
+    model.contact_model.anchor_friction(state.x, state.q)
+    wall, cpu = time.perf_counter(), time.process_time()
+    out = minimize(problem, state, tol=0.0, max_iter=steps, raise_on_failure=False)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    return {"nw": scene.nw, "nc": scene.nc, "unknowns": int(info["free_dofs"]), "lam": lam,
+            "steps": out.iterations, "wall_per_step_s": wall / out.iterations,
+            "cpu_per_step_s": cpu / out.iterations, "energy": out.energy,
+            "residual": out.residual}
+
+
 def runs_table(folders):
     rows = []
     for folder in folders:
@@ -144,6 +177,9 @@ def main():
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--warm", type=int, default=10)
     parser.add_argument("--runs", nargs="*", default=[])
+    parser.add_argument("--steps", type=int, default=0,
+                        help="with --checkpoint: also time this many iterations of the next "
+                             "friction round")
     parser.add_argument("--checkpoint", nargs="*", default=[],
                         help="checkpoint.npz files of knitfem curl runs: measure at their "
                              "state and friction anchors (scene from the checkpoint)")
@@ -159,10 +195,21 @@ def main():
     for path in args.checkpoint:
         rows.append(measure(None, None, args.repeat, args.warm, path))
         print(json.dumps(rows[-1]), flush=True)
+    steps = []
+    for path in args.checkpoint if args.steps > 0 else []:
+        steps.append(round_steps(path, args.steps))
+        print(json.dumps(steps[-1]), flush=True)
     runs = runs_table(args.runs)
-    write_json(out / "bench_fabric.json", {"iteration": rows, "runs": runs})
-    (out / "bench_fabric.md").write_text(markdown(rows, runs))
-    print(markdown(rows, runs))
+    write_json(out / "bench_fabric.json", {"iteration": rows, "runs": runs, "round_steps": steps})
+    text = markdown(rows, runs)
+    if steps:
+        text += "\n| swatch | λ | unknowns | iterations | wall / iteration | CPU / iteration | " \
+                "energy | residual |\n|---|---:|---:|---:|---:|---:|---:|---:|\n" + "".join(
+                    f"| {r['nw']} × {r['nc']} | {r['lam']:.3g} | {r['unknowns']} | {r['steps']} | "
+                    f"{r['wall_per_step_s']:.3f} s | {r['cpu_per_step_s']:.3f} s | "
+                    f"{r['energy']:.8g} | {r['residual']:.3e} |\n" for r in steps)
+    (out / "bench_fabric.md").write_text(text)
+    print(text)
 
 
 if __name__ == "__main__":

@@ -356,6 +356,33 @@ def test_broad_phase_finds_exactly_the_brute_force_candidates(rng, n):
                                                     bulges), axis=1))) == slow
 
 
+def test_kept_candidate_list_returns_exactly_what_a_fresh_search_does(rng):
+    """The Verlet list (CandidateList) against candidate_pairs along a random
+    walk of the segments, small steps and large jumps, stretching and
+    shrinking: the same array at every call (same pairs, same order), the
+    tree searched again only when some sphere left its grown sphere."""
+    from knitfem.contact.broad import CandidateList
+    n = 300
+    x0 = rng.uniform(0, 8, (n, 3))
+    x1 = x0 + rng.normal(scale=0.5, size=(n, 3))
+    radius = rng.uniform(0.1, 0.3, n)
+    rod = rng.integers(0, 4, n)
+    s_mid = rng.uniform(0, 30, n)
+    kept = CandidateList(skin=0.4)
+    calls = 0
+    for scale in [0.0] + [0.01] * 20 + [0.3, 0.01, 0.01, 1.0] + [0.02] * 10:
+        x0 = x0 + rng.normal(scale=scale, size=x0.shape)
+        x1 = x1 + rng.normal(scale=scale, size=x1.shape)
+        bulges = rng.uniform(0, 0.05, n)
+        fresh = candidate_pairs(x0, x1, radius, rod, s_mid, 0.05, 1.0, bulges)
+        assert len(fresh) > 0
+        assert np.array_equal(kept(x0, x1, radius, rod, s_mid, 0.05, 1.0, bulges), fresh)
+        calls += 1
+    assert 3 <= kept.searches < calls // 2
+    with pytest.raises(ValueError, match="skin must be a positive length"):
+        CandidateList(0.0)
+
+
 def test_scene_without_close_segments_pays_nothing():
     contact = SegmentContact(PenaltyLaw(1.0, 0.01), np.full(2, 0.1), np.array([0, 1]),
                              np.zeros(2))

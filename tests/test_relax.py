@@ -245,6 +245,60 @@ def test_sparse_cholesky_solves_and_refuses_what_is_not_positive_definite(rng, b
         Cholesky(A, backend="umfpack")
 
 
+@pytest.mark.parametrize("backend", ["qdldl", "cholmod"])
+def test_factorizer_reuses_the_analysis_and_gives_the_same_factors(rng, backend):
+    """Factorizer (the modified Newton steps' factorisations) analyses a
+    pattern once and refactorises in place while it stays the same: its
+    solves equal a fresh Cholesky's bit for bit for shifted matrices of one
+    pattern, after a refused indefinite one, and after a change of pattern
+    (a new analysis)."""
+    from scipy import sparse
+    from knitfem.solve.factor import Cholesky, Factorizer, NotPositiveDefinite, \
+        cholmod_available
+    if backend == "cholmod" and not cholmod_available():
+        pytest.skip("scikit-sparse (the cholmod extra) is not installed")
+    n = 300
+    B = sparse.random(n, n, density=0.02, random_state=2, format="csc")
+    A = sparse.csc_matrix(B @ B.T + 1e-3 * sparse.identity(n))
+    C = sparse.csc_matrix(A + sparse.random(n, n, density=0.01, random_state=3).T @
+                          sparse.random(n, n, density=0.01, random_state=3))   # another pattern
+    b = rng.normal(size=n)
+    factorize = Factorizer(backend=backend)
+    for M in (A, A + 0.5 * sparse.identity(n), C, C + sparse.identity(n)):
+        assert np.array_equal(factorize(M).solve(b), Cholesky(M, backend=backend).solve(b))
+    with pytest.raises(NotPositiveDefinite):
+        factorize(C - 2.0 * abs(C).max() * sparse.identity(n, format="csc"))
+    M = C + 2.0 * sparse.identity(n)
+    assert np.array_equal(factorize(M).solve(b), Cholesky(M, backend=backend).solve(b))
+    assert factorize.factorizations == 6
+    if backend == "cholmod":
+        assert factorize.analyses == 2          # A's pattern, then C's
+
+
+def test_kept_pattern_symmetrized_equals_the_blockwise_symmetric_part(rng):
+    """block_matrix(..., keep_pattern=True, symmetrize=True) (the friction
+    groups: one gather through the pattern's mirror) equals the symmetric
+    part taken block by block and assembled, to round-off, on the free dofs;
+    asked without a kept pattern it is refused."""
+    from knitfem.beam.assembly import block_matrix, mirror_slots
+    from knitfem.beam.energy import symmetric_part
+    n_dofs = 40
+    dofs = np.stack([rng.choice(n_dofs, 6, replace=False) for _ in range(25)])
+    blocks = rng.normal(size=(25, 6, 6))
+    free = np.ones(n_dofs, bool)
+    free[[3, 17]] = False
+    K = block_matrix(dofs, blocks, n_dofs, free, keep_pattern=True, symmetrize=True)
+    R = block_matrix(dofs, symmetric_part(blocks), n_dofs, free)
+    assert abs(K - R).max() <= 1e-14 * abs(R).max()
+    assert abs(K - K.T).max() == 0.0
+    indices, indptr = K.indices, K.indptr
+    mirror = mirror_slots(indices, indptr, K.shape[0])
+    rows = np.repeat(np.arange(K.shape[0]), np.diff(indptr))
+    assert np.array_equal(indices[mirror], rows) and np.array_equal(rows[mirror], indices)
+    with pytest.raises(ValueError, match="symmetrize needs keep_pattern"):
+        block_matrix(dofs, blocks, n_dofs, free, symmetrize=True)
+
+
 @pytest.mark.parametrize("option", [dict(depth=0.0), dict(depth=np.nan), dict(step=-1.0),
                                     dict(turn=np.inf), dict(turn=None), dict(depth="0.04"),
                                     dict(step=True)])

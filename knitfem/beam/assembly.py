@@ -172,14 +172,38 @@ _PATTERNS = {}
 _PATTERN_LIMIT = 8
 
 
+def _key(dofs, n_dofs, free):
+    return (n_dofs, dofs.shape, dofs.tobytes(), None if free is None else free.tobytes())
+
+
 def _kept_pattern(dofs, n_dofs, free):
-    key = (n_dofs, dofs.shape, dofs.tobytes(), None if free is None else free.tobytes())
+    key = _key(dofs, n_dofs, free)
     if key not in _PATTERNS:
         while len(_PATTERNS) >= _PATTERN_LIMIT:
             del _PATTERNS[next(iter(_PATTERNS))]
         index, n = _numbering(free, n_dofs)
         _PATTERNS[key] = csr_pattern(index[dofs], n)
     return _PATTERNS[key]
+
+
+_MIRRORS = {}              # the kept patterns' mirror_slots (dropped with their pattern)
+
+
+def mirror_slots(indices, indptr, n):
+    """Where the mirror (j, i) of every entry (i, j) of a structurally
+    symmetric CSR pattern (sorted indices) sits in its data."""
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+    return np.searchsorted(rows * n + indices, indices.astype(np.int64) * n + rows)
+
+
+def _kept_mirror(dofs, n_dofs, free):
+    key = _key(dofs, n_dofs, free)
+    if key not in _MIRRORS:
+        _, indices, indptr, n = _kept_pattern(dofs, n_dofs, free)
+        for old in [k for k in _MIRRORS if k not in _PATTERNS]:
+            del _MIRRORS[old]
+        _MIRRORS[key] = mirror_slots(indices, indptr, n)
+    return _MIRRORS[key]
 
 
 def block_vector(dofs, values, n_dofs):
@@ -221,7 +245,7 @@ def _factored_matrix(dofs, blocks, n_dofs, free):
     return (G.T @ (W @ G)).tocsr()
 
 
-def block_matrix(dofs, blocks, n_dofs, free=None, keep_pattern=False):
+def block_matrix(dofs, blocks, n_dofs, free=None, keep_pattern=False, symmetrize=False):
     """CSR matrix of per-block matrices blocks (m, k, k) at dofs (m, k) (duplicates
     summed), restricted to the ``free`` dofs (mask (n_dofs,)) if given.  For terms
     whose pattern may change between calls (contact pairs, friction anchors,
@@ -230,10 +254,19 @@ def block_matrix(dofs, blocks, n_dofs, free=None, keep_pattern=False):
     over many calls (friction anchors within a round), the CSR pattern is kept
     by the dofs and the blocks are scattered into it (Factored: its dense
     blocks, 4 x faster than the products); the arithmetic depends on the flag
-    only, never on what was kept before (a resumed run repeats its path)."""
+    only, never on what was kept before (a resumed run repeats its path).
+    ``symmetrize`` (with ``keep_pattern``): the symmetric part of the sum,
+    taken on the assembled entries (one gather through the pattern's
+    mirror) instead of block by block (10 x 35: 77 ms for the transposed
+    copy of 5 635 friction blocks of 30 x 30, more than their scatter)."""
     if keep_pattern:
         dense = blocks.dense() if hasattr(blocks, "J") else blocks
-        return scatter_blocks(_kept_pattern(dofs, n_dofs, free), dense)
+        K = scatter_blocks(_kept_pattern(dofs, n_dofs, free), dense)
+        if symmetrize:
+            K.data = 0.5 * (K.data + K.data[_kept_mirror(dofs, n_dofs, free)])
+        return K
+    if symmetrize:
+        raise ValueError("block_matrix: symmetrize needs keep_pattern")
     if hasattr(blocks, "J"):
         K = _factored_matrix(dofs, blocks, n_dofs, free)
         extra = getattr(blocks, "G", None)

@@ -85,7 +85,8 @@ class EnergyProblem:
         f = np.bincount(asm.element_dofs.T.ravel(), weights=res.ravel(), minlength=asm.n_dofs)
         H = None
         blocks = []                 # (dofs, matrices) for the PSD model
-        convex = None               # assembled groups that are PSD by construction
+        convex = []                 # (dofs, matrices) PSD by construction
+        kept = {}                   # id(dofs) -> [dofs, summed dense blocks]
         if hessian:
             H = asm.scatter(symmetric_part(Ke), self.free)
         energies, groups = self.groups(state, hessian)
@@ -93,16 +94,25 @@ class EnergyProblem:
             E += Ep
         for _, dofs, fe, Kb, psd in groups:
             f += np.bincount(dofs.ravel(), np.ravel(fe), minlength=asm.n_dofs)
-            if hessian and len(dofs):
-                symmetric = symmetric_part(Kb)
-                # friction groups (psd True or None) keep their dofs for a round
-                Kg = block_matrix(dofs, symmetric, asm.n_dofs, self.free,
-                                  keep_pattern=psd is not False)
-                H = H + Kg
-                if psd:
-                    convex = Kg if convex is None else convex + Kg
-                elif psd is not None:             # None: left out of the PSD model
-                    blocks.append((dofs, Kb))
+            if not (hessian and len(dofs)):
+                continue
+            if psd is False:
+                H = H + block_matrix(dofs, symmetric_part(Kb), asm.n_dofs, self.free)
+                blocks.append((dofs, Kb))
+                continue
+            # friction groups (psd True or None) keep their dofs for a round,
+            # and the co-rotated friction's two groups share theirs: summed
+            # first, they are scattered and symmetrised once
+            dense = Kb.dense() if hasattr(Kb, "J") else Kb
+            if id(dofs) in kept:
+                kept[id(dofs)][1] = kept[id(dofs)][1] + dense
+            else:
+                kept[id(dofs)] = [dofs, dense]
+            if psd:
+                convex.append((dofs, Kb))
+        for dofs, dense in kept.values():
+            H = H + block_matrix(dofs, dense, asm.n_dofs, self.free, keep_pattern=True,
+                                 symmetrize=True)
         u = state.x - self.X
         E -= self.lam * float(self.f_ext.reshape(-1, DOFS_PER_NODE)[:, :3].ravel() @ u.ravel())
         g = (f - self.lam * self.f_ext)[self.free]
@@ -116,7 +126,9 @@ class EnergyProblem:
             Hp = asm.scatter(psd_project(Ke), self.free)
             for dofs, Kb in blocks:
                 Hp = Hp + block_matrix(dofs, psd_project(Kb), asm.n_dofs, self.free)
-            return Hp if convex is None else Hp + convex
+            for dofs, Kb in convex:
+                Hp = Hp + block_matrix(dofs, Kb, asm.n_dofs, self.free, keep_pattern=True)
+            return Hp
         return E, g, H, psd_model
 
     def groups(self, state, hessian=True):

@@ -17,11 +17,22 @@ def bounding_spheres(x0, x1, radius, g0, bulge=0.0):
     return 0.5 * (x0 + x1), 0.5 * np.linalg.norm(x1 - x0, axis=1) + radius + 0.5 * g0 + bulge
 
 
-def _keep(pairs, centre, rho, rod, s_mid, exclude):
+def _overlap(pairs, centre, rho):
     a, b = pairs[:, 0], pairs[:, 1]
-    overlap = np.linalg.norm(centre[a] - centre[b], axis=1) < rho[a] + rho[b]
-    apart = (rod[a] != rod[b]) | (np.abs(s_mid[a] - s_mid[b]) > exclude)
-    return pairs[overlap & apart]
+    d = centre[a] - centre[b]
+    return np.einsum("ij,ij->i", d, d) < (rho[a] + rho[b]) ** 2
+
+
+def _apart(pairs, rod, s_mid, exclude):
+    a, b = pairs[:, 0], pairs[:, 1]
+    return (rod[a] != rod[b]) | (np.abs(s_mid[a] - s_mid[b]) > exclude)
+
+
+def _keep(pairs, centre, rho, rod, s_mid, exclude):
+    """The pairs whose spheres overlap and that are not neighbours, sorted
+    (i, then j): the same array however the pairs were found."""
+    pairs = pairs[_overlap(pairs, centre, rho) & _apart(pairs, rod, s_mid, exclude)]
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
 def candidate_pairs(x0, x1, radius, rod, s_mid, g0, exclude, bulge=0.0):
@@ -47,3 +58,40 @@ def brute_force_pairs(x0, x1, radius, rod, s_mid, g0, exclude, bulge=0.0):
     centre, rho = bounding_spheres(x0, x1, radius, g0, bulge)
     i, j = np.triu_indices(x0.shape[0], 1)
     return _keep(np.stack([i, j], axis=1), centre, rho, rod, s_mid, exclude)
+
+
+class CandidateList:
+    """:func:`candidate_pairs` kept between calls (a Verlet list): the pairs
+    whose spheres, grown by ``skin``/2, overlap are found once with the
+    tree; while every segment's sphere stays inside its grown sphere of
+    that search (centre moved + radius grown <= skin/2), every pair that
+    overlaps now is among them, and filtering them gives exactly the
+    array :func:`candidate_pairs` returns (same pairs, same order, tested).
+    A relaxation moves its nodes by at most half a yarn radius per step
+    (line-search trials included), so the tree is rebuilt every few steps
+    instead of at every energy evaluation (10 x 35 swatch: 34 of the 141 ms
+    of an energy and gradient).  One list serves one set of segments: their
+    rods, arclengths and ``exclude`` are read at a search only."""
+
+    def __init__(self, skin):
+        if not (np.isfinite(skin) and skin > 0):
+            raise ValueError(f"CandidateList: skin must be a positive length (got {skin!r})")
+        self.skin = float(skin)
+        self.searches = 0            # tree searches made
+        self._kept = None            # (centre, rho, pairs) of the last search
+
+    def __call__(self, x0, x1, radius, rod, s_mid, g0, exclude, bulge=0.0):
+        if x0.shape[0] < 2:
+            return np.empty((0, 2), dtype=np.int64)
+        centre, rho = bounding_spheres(x0, x1, radius, g0, bulge)
+        kept = self._kept
+        if kept is None or kept[0].shape != centre.shape or np.any(
+                np.linalg.norm(centre - kept[0], axis=1) + rho - kept[1] > 0.5 * self.skin):
+            grown = rho + 0.5 * self.skin
+            pairs = cKDTree(centre).query_pairs(2.0 * grown.max(), output_type="ndarray")
+            pairs = pairs.astype(np.int64).reshape(-1, 2)
+            pairs = pairs[_overlap(pairs, centre, grown) & _apart(pairs, rod, s_mid, exclude)]
+            # sorted once: a subset keeps the order
+            self._kept = kept = (centre, rho, pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))])
+            self.searches += 1
+        return kept[2][_overlap(kept[2], centre, rho)]

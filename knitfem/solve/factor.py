@@ -92,10 +92,11 @@ class LDLt:
 class Cholesky:
     """A = L L^T of a symmetric positive definite sparse matrix (see module docstring).
 
-    ``backend`` is 'cholmod' or 'qdldl' (None: CHOLMOD when installed).
-    Raises NotPositiveDefinite."""
+    ``backend`` is 'cholmod' or 'qdldl' (None: CHOLMOD when installed);
+    ``refactor``: a CHOLMOD factor of a matrix with A's pattern, refactorised
+    in place (see :class:`Factorizer`).  Raises NotPositiveDefinite."""
 
-    def __init__(self, A, *, analysis=None, backend=None):
+    def __init__(self, A, *, backend=None, refactor=None):
         if backend not in (None, "cholmod", "qdldl"):
             raise ValueError(f"backend must be 'cholmod', 'qdldl' or None, got {backend!r}")
         if backend == "cholmod" and _cholmod is None:
@@ -103,8 +104,9 @@ class Cholesky:
         A = sparse.csc_matrix(A, dtype=float)
         if _cholmod is not None and backend != "qdldl":
             try:
-                if analysis is not None:
-                    self._factor = analysis.cholesky(A)
+                if refactor is not None:          # same pattern: in place (Factorizer)
+                    refactor.cholesky_inplace(A)
+                    self._factor = refactor
                 else:
                     self._factor = _cholmod.cholesky(A, ordering_method="default")
             except _cholmod.CholmodNotPositiveDefiniteError as err:
@@ -124,6 +126,41 @@ class Cholesky:
             raise NotPositiveDefinite(f"{ldl.negative} negative and {ldl.zero} zero pivots")
         self.backend = "qdldl"
         self.solve = ldl.solve
+
+
+class Factorizer:
+    """Cholesky factorisations of a sequence of matrices that often share a
+    sparsity pattern (the shifted retries of one modified Newton step, the
+    steps of a friction round while no contact forms or ends).  With CHOLMOD
+    the factor of the last pattern is refactorised in place (its symbolic
+    analysis and storage reused: 10 x 35 swatch, 0.26 s against 0.35-0.44 s
+    for a fresh factorisation, CPU time), so **a factorisation returned is
+    valid only until the next call**.  The factors are those of
+    :class:`Cholesky` bit for bit (the analysis does not depend on the
+    values; tested), also after a refused, not positive definite matrix."""
+
+    def __init__(self, backend=None):
+        self.backend = backend
+        self._pattern = None
+        self._factor = None
+        self.analyses = 0           # symbolic analyses made
+        self.factorizations = 0
+
+    def __call__(self, A):
+        A = sparse.csc_matrix(A, dtype=float)
+        self.factorizations += 1
+        if _cholmod is None or self.backend == "qdldl":
+            return Cholesky(A, backend=self.backend)
+        A.sort_indices()
+        pattern = self._pattern
+        if pattern is None or not (pattern[0].shape == A.indptr.shape and
+                                   pattern[1].shape == A.indices.shape and
+                                   np.array_equal(pattern[0], A.indptr) and
+                                   np.array_equal(pattern[1], A.indices)):
+            self._factor = _cholmod.analyze(A, ordering_method="default")
+            self._pattern = (A.indptr.copy(), A.indices.copy())
+            self.analyses += 1
+        return Cholesky(A, backend="cholmod", refactor=self._factor)
 
 
 def cholmod_available():

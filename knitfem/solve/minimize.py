@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import sparse
 
-from .factor import Cholesky, NotPositiveDefinite
+from .factor import Cholesky, Factorizer, NotPositiveDefinite
 
 MU_MIN, MU_MAX = 1e-10, 1e8
 SHIFTS = 4                    # tries of the exact Hessian, mu x 10 each, before the PSD model
@@ -70,8 +70,8 @@ class Relaxed:
     history: list = field(default_factory=list)   # (E, residual, mu, t, hessian used, step cap)
 
 
-def _factor(H, D, mu):
-    return Cholesky(sparse.csc_matrix(H + sparse.diags(mu * D)))
+def _factor(H, D, mu, factorize=Cholesky):
+    return factorize(sparse.csc_matrix(H + sparse.diags(mu * D)))
 
 
 def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progress=None,
@@ -88,6 +88,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
     E, g, H, Hp = problem.evaluate(x, True)
     history = []
     exact_failed, shift_last = 0, 0.0
+    factorize = Factorizer()
     limit = getattr(problem, "step_limit", None)
     depth = getattr(problem, "depth", None)
     depth_limit = getattr(problem, "depth_limit", np.inf)
@@ -114,7 +115,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
             shift = max(mu, shift_last / 3.0)
             for _ in range(SHIFTS):
                 try:
-                    chol, used = _factor(H, D, shift), "exact"
+                    chol, used = _factor(H, D, shift, factorize), "exact"
                     exact_failed, shift_last = 0, (shift if shift > mu else 0.0)
                     mu = shift
                     break
@@ -126,7 +127,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
         while used is None:
             model = Hp() if model is None else model
             try:
-                chol, used = _factor(model, D, mu), "psd"
+                chol, used = _factor(model, D, mu, factorize), "psd"
             except NotPositiveDefinite:
                 mu = min(10.0 * mu, MU_MAX)
                 if mu >= MU_MAX:
