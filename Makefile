@@ -7,7 +7,7 @@ VENV   := .venv
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= studies/results
 
-.PHONY: demo test gallery studies bench bench-elastica system-deps clean-venv
+.PHONY: demo test test-crosscheck gallery studies bench bench-elastica system-deps clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -26,6 +26,10 @@ demo: $(STAMP) system-deps
 
 test: $(STAMP) system-deps
 	$(VENV)/bin/python -m pytest -q -n auto --dist loadfile
+
+# issue 12's cross-model check (both models on an 8 x 8 swatch, ~15-20 min)
+test-crosscheck: $(STAMP) system-deps
+	$(VENV)/bin/python -m pytest -q --crosscheck tests/test_crosscheck.py
 
 gallery: $(STAMP) system-deps
 	$(VENV)/bin/knitfem gallery --out $(OUT)/gallery
