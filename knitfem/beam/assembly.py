@@ -172,21 +172,20 @@ _PATTERNS = {}
 _PATTERN_LIMIT = 8
 
 
-def _key(dofs, n_dofs, free):
-    return (n_dofs, dofs.shape, dofs.tobytes(), None if free is None else free.tobytes())
-
-
-def _kept_pattern(dofs, n_dofs, free):
-    key = _key(dofs, n_dofs, free)
+def _kept(dofs, n_dofs, free, mirror=False):
+    """The kept pattern of these dofs, and with ``mirror`` its
+    :func:`mirror_slots` (computed once, kept with the pattern)."""
+    key = (n_dofs, dofs.shape, dofs.tobytes(), None if free is None else free.tobytes())
     if key not in _PATTERNS:
         while len(_PATTERNS) >= _PATTERN_LIMIT:
             del _PATTERNS[next(iter(_PATTERNS))]
         index, n = _numbering(free, n_dofs)
-        _PATTERNS[key] = csr_pattern(index[dofs], n)
-    return _PATTERNS[key]
-
-
-_MIRRORS = {}              # the kept patterns' mirror_slots (dropped with their pattern)
+        _PATTERNS[key] = [csr_pattern(index[dofs], n), None]
+    entry = _PATTERNS[key]
+    if mirror and entry[1] is None:
+        _, indices, indptr, n = entry[0]
+        entry[1] = mirror_slots(indices, indptr, n)
+    return entry
 
 
 def mirror_slots(indices, indptr, n):
@@ -194,16 +193,6 @@ def mirror_slots(indices, indptr, n):
     symmetric CSR pattern (sorted indices) sits in its data."""
     rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
     return np.searchsorted(rows * n + indices, indices.astype(np.int64) * n + rows)
-
-
-def _kept_mirror(dofs, n_dofs, free):
-    key = _key(dofs, n_dofs, free)
-    if key not in _MIRRORS:
-        _, indices, indptr, n = _kept_pattern(dofs, n_dofs, free)
-        for old in [k for k in _MIRRORS if k not in _PATTERNS]:
-            del _MIRRORS[old]
-        _MIRRORS[key] = mirror_slots(indices, indptr, n)
-    return _MIRRORS[key]
 
 
 def block_vector(dofs, values, n_dofs):
@@ -261,9 +250,10 @@ def block_matrix(dofs, blocks, n_dofs, free=None, keep_pattern=False, symmetrize
     copy of 5 635 friction blocks of 30 x 30, more than their scatter)."""
     if keep_pattern:
         dense = blocks.dense() if hasattr(blocks, "J") else blocks
-        K = scatter_blocks(_kept_pattern(dofs, n_dofs, free), dense)
+        pattern, mirror = _kept(dofs, n_dofs, free, symmetrize)
+        K = scatter_blocks(pattern, dense)
         if symmetrize:
-            K.data = 0.5 * (K.data + K.data[_kept_mirror(dofs, n_dofs, free)])
+            K.data = 0.5 * (K.data + K.data[mirror])
         return K
     if symmetrize:
         raise ValueError("block_matrix: symmetrize needs keep_pattern")

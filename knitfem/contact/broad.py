@@ -46,11 +46,13 @@ def candidate_pairs(x0, x1, radius, rod, s_mid, g0, exclude, bulge=0.0):
     """
     if x0.shape[0] < 2:
         return np.empty((0, 2), dtype=np.int64)
-    centre, rho = bounding_spheres(x0, x1, radius, g0, bulge)
+    return _search(*bounding_spheres(x0, x1, radius, g0, bulge), rod, s_mid, exclude)
+
+
+def _search(centre, rho, rod, s_mid, exclude):
+    """:func:`_keep` of the pairs the tree finds within the largest sphere."""
     pairs = cKDTree(centre).query_pairs(2.0 * rho.max(), output_type="ndarray")
-    if pairs.shape[0] == 0:
-        return pairs.astype(np.int64)
-    return _keep(pairs, centre, rho, rod, s_mid, exclude).astype(np.int64)
+    return _keep(pairs.astype(np.int64).reshape(-1, 2), centre, rho, rod, s_mid, exclude)
 
 
 def brute_force_pairs(x0, x1, radius, rod, s_mid, g0, exclude, bulge=0.0):
@@ -87,11 +89,8 @@ class CandidateList:
         kept = self._kept
         if kept is None or kept[0].shape != centre.shape or np.any(
                 np.linalg.norm(centre - kept[0], axis=1) + rho - kept[1] > 0.5 * self.skin):
-            grown = rho + 0.5 * self.skin
-            pairs = cKDTree(centre).query_pairs(2.0 * grown.max(), output_type="ndarray")
-            pairs = pairs.astype(np.int64).reshape(-1, 2)
-            pairs = pairs[_overlap(pairs, centre, grown) & _apart(pairs, rod, s_mid, exclude)]
-            # sorted once: a subset keeps the order
-            self._kept = kept = (centre, rho, pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))])
+            # sorted by _keep once: the subsets below keep the order
+            pairs = _search(centre, rho + 0.5 * self.skin, rod, s_mid, exclude)
+            self._kept = kept = (centre, rho, pairs)
             self.searches += 1
         return kept[2][_overlap(kept[2], centre, rho)]

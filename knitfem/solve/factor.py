@@ -153,9 +153,7 @@ class Factorizer:
             return Cholesky(A, backend=self.backend)
         A.sort_indices()
         pattern = self._pattern
-        if pattern is None or not (pattern[0].shape == A.indptr.shape and
-                                   pattern[1].shape == A.indices.shape and
-                                   np.array_equal(pattern[0], A.indptr) and
+        if pattern is None or not (np.array_equal(pattern[0], A.indptr) and
                                    np.array_equal(pattern[1], A.indices)):
             self._factor = _cholmod.analyze(A, ordering_method="default")
             self._pattern = (A.indptr.copy(), A.indices.copy())
