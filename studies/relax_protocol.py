@@ -9,7 +9,9 @@ penetration on the way.
 Variants (keyword arguments of :func:`knitfem.scenes.fabric_relax.relax_fabric`):
 ``default`` (increments of 0.1 growing to 0.25, rounds of 200 steps x 4),
 ``rounds60`` (rounds of 60 x 8), ``thirds`` (increments of 1/3), ``one`` (one
-increment, rounds of 60 x 8).  One BLAS / numba thread each; variants run
+increment, rounds of 60 x 8), ``reanchor20`` (a round ends early to anchor
+the friction of the contacts formed in it, once they exceed 20 % of those
+touching at its start: ``knitfem curl --reanchor 0.2``).  One BLAS / numba thread each; variants run
 one after the other.  The rounds are read off the progress callback (a new
 round restarts its step count).  Writes OUT/relax_protocol_<nw>x<nc>.json
 and .md.
@@ -33,6 +35,7 @@ VARIANTS = {
     "rounds60": {"iterations": 60, "max_rounds": 8},
     "thirds": {"dlam": 0.34, "dlam_max": 0.5},
     "one": {"dlam": 1.0, "dlam_max": 1.0, "iterations": 60, "max_rounds": 8},
+    "reanchor20": {"reanchor": 0.2},
 }
 
 
@@ -45,14 +48,14 @@ def run(scene, options):
         if not rounds or it < rounds[-1]["steps"] or lam != rounds[-1]["lam"]:
             rounds.append({"lam": lam, "steps": 0, "first_residual": res})
         rounds[-1].update(steps=it + 1, last_residual=res)
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     try:
         eq, error = relax_fabric(model, Homotopy(model, scene.alpha), progress=progress,
                                  **options), None
     except FabricRelaxationError as err:
         eq, error = None, str(err)
-    record = {"options": options, "seconds": time.perf_counter() - t, "rounds": rounds,
-              "error": error}
+    record = {"options": options, "seconds": time.perf_counter() - t,
+              "cpu_s": time.process_time() - cpu, "rounds": rounds, "error": error}
     if eq is not None:
         shape = swatch_curl(eq.state.x, swatch)
         record.update(iterations=eq.iterations, converged=eq.converged, residual=eq.residual,
@@ -61,22 +64,24 @@ def run(scene, options):
                       increments=sum(i.accepted for i in eq.increments),
                       failed_increments=sum(not i.accepted for i in eq.increments),
                       max_penetration_over_d=eq.max_penetration / (2.0 * scene.radius),
-                      coulomb_excess=eq.coulomb_excess)
+                      coulomb_excess=eq.coulomb_excess, friction_settled=eq.friction_settled)
     return record
 
 
 def table(records):
-    lines = ["| variant | iterations | rounds | wall (s) | curl | rolls L / R / T / B (deg) | "
-             "penetration / d | Coulomb excess |", "|---|---:|---:|---:|---|---|---:|---:|"]
+    lines = ["| variant | iterations | rounds | wall (s) | CPU (s) | curl | rolls L / R / T / B "
+             "(deg) | friction settled | penetration / d | Coulomb excess |",
+             "|---|---:|---:|---:|---:|---|---|---|---:|---:|"]
     for name, r in records.items():
+        cpu = f"{r['cpu_s']:.0f}" if "cpu_s" in r else "–"
         if r["error"] is not None:
-            lines.append(f"| {name} | failed | {len(r['rounds'])} | {r['seconds']:.0f} | "
-                         f"{r['error'][:60]} | | | |")
+            lines.append(f"| {name} | failed | {len(r['rounds'])} | {r['seconds']:.0f} | {cpu} | "
+                         f"{r['error'][:60]} | | | | |")
             continue
         rolls = " / ".join(f"{r['roll_deg'][k]:+.0f}" for k in ("left", "right", "top", "bottom"))
         lines.append(f"| {name} | {r['iterations']} | {len(r['rounds'])} | {r['seconds']:.0f} | "
-                     f"{r['curl']} | {rolls} | {r['max_penetration_over_d']:.3f} | "
-                     f"{r['coulomb_excess']:.3f} |")
+                     f"{cpu} | {r['curl']} | {rolls} | {r.get('friction_settled', '–')} | "
+                     f"{r['max_penetration_over_d']:.3f} | {r['coulomb_excess']:.3f} |")
     return "\n".join(lines) + "\n"
 
 

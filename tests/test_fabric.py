@@ -249,6 +249,8 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
                         "--bindoff-prestretch"),
                        (["curl", "--tail-ties", "0"], "--tail-ties"),
                        (["curl", "--model", "bspline", "--tail-ties", "2"], "--tail-ties"),
+                       (["curl", "--reanchor", "0"], "--reanchor"),
+                       (["curl", "--model", "bspline", "--reanchor", "0.2"], "--reanchor"),
                        (["curl", "--nw", "55", "--nc", "35"], "--no-limits")):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()
@@ -378,14 +380,123 @@ def _scripted_rounds(monkeypatch, residuals, tol=1e-8, moves=None):
     class Result:
         pass
 
-    def scripted(model, state, lam, tol_, iterations, progress=None):
+    def scripted(model, state, lam, tol_, iterations, progress=None, reanchor=None):
         result = Result()
         result.state = type(state)(state.x + next(shifts), state.q.copy())
-        result.iterations, result.energy = 1, 0.0
+        result.iterations, result.energy, result.stopped = 1, 0.0, False
         result.residual = next(ends)
         result.converged = result.residual <= tol
         return result, np.inf
     monkeypatch.setattr(fabric_relax, "_round", scripted)
+
+
+def _rounds_ending_early(monkeypatch, outcomes, calls):
+    """Friction rounds that end as ``outcomes`` say: "stop" (ended early for
+    new contacts, 10 steps: only when the increment allows it, otherwise a
+    whole unconverged round of 1 step) or a final residual (1 step);
+    ``calls`` records each round's ``reanchor``."""
+    outcomes = iter(outcomes)
+
+    class Result:
+        pass
+
+    def scripted(model, state, lam, tol_, iterations, progress=None, reanchor=None):
+        calls.append(reanchor)
+        outcome = next(outcomes)
+        result = Result()
+        result.state, result.energy = state, 0.0
+        result.stopped = outcome == "stop" and reanchor is not None
+        result.iterations = 10 if result.stopped else 1
+        result.residual = 1.0 if outcome == "stop" else outcome
+        result.converged = result.residual <= tol_
+        return result, np.inf
+    monkeypatch.setattr(fabric_relax, "_round", scripted)
+
+
+def test_rounds_ended_for_new_contacts_do_not_count_as_rounds(monkeypatch):
+    """A round ended early to anchor the contacts that formed in it is not
+    one of the increment's ``max_rounds`` (its steps count in the total, it
+    is checkpointed as the round count so far); once such rounds have spent
+    ``max_rounds x iterations`` steps, the rest run whole, so an increment
+    whose contacts keep forming still ends (here failing on its budget)."""
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
+    state = model.initial_state()
+    calls, saved = [], []
+    _rounds_ending_early(monkeypatch, ["stop", "stop", 1e-4], calls)
+    result, inc = fabric_relax._increment(model, state, 0.5, 1e-3, 30, 1, np.inf,
+                                          on_round=saved.append, reanchor=0.2)
+    assert result is not None and result.converged and inc.iterations == 10 + 10 + 1
+    assert calls == [0.2, 0.2, 0.2]
+    assert [p.rounds for p in saved] == [0, 0] and [p.iterations for p in saved] == [10, 20]
+    calls.clear()
+    _rounds_ending_early(monkeypatch, ["stop"] * 10, calls)
+    result, reason, inc = fabric_relax._increment(model, state, 0.5, 1e-3, 5, 2, np.inf,
+                                                  reanchor=0.2)
+    assert result is None and "in 2 rounds" in reason
+    assert calls == [0.2, None, None] and inc.iterations == 10 + 1 + 1
+    calls.clear()
+    _rounds_ending_early(monkeypatch, ["stop", 1e-4], calls)   # not asked: rounds run whole
+    result, reason, inc = fabric_relax._increment(model, state, 0.5, 1e-3, 5, 1, np.inf)
+    assert result is None and calls == [None] and "in 1 rounds" in reason
+
+
+def test_a_round_ends_once_contacts_have_formed_without_friction():
+    """The stop of a re-anchoring round counts the segments touching now
+    (gap below the law's reach) that were not touching at the round's start:
+    it ends the round only after ``min_steps`` and once more than
+    max(4, share x touching at the start) are new."""
+    from types import SimpleNamespace
+    g0 = 0.04
+    contact = SimpleNamespace(segments=SimpleNamespace(law=SimpleNamespace(g0=g0)), report=None)
+
+    def touching(mask):
+        gap = np.where(mask, 0.0, g0)
+        contact.report = SimpleNamespace(segment_gap=gap)
+    stop = fabric_relax._contacts_formed(contact, 0.1, 3)
+    start = np.zeros(200, bool)
+    start[:100] = True                              # threshold max(4, 10) = 10
+    touching(start)
+    assert not stop(0, 0.0, 1.0)
+    now = start.copy()
+    now[100:111] = True                             # 11 new ...
+    now[:50] = False                                # ... while 50 came apart
+    touching(now)
+    assert not stop(2, 0.0, 1.0)                    # before min_steps
+    assert stop(3, 0.0, 1.0)
+    now[110] = False                                # 10 new: not more than the share
+    touching(now)
+    assert not stop(4, 0.0, 1.0)
+    few = fabric_relax._contacts_formed(contact, 0.1, 1)
+    touching(np.zeros(200, bool))
+    few(0, 0.0, 1.0)
+    one = np.zeros(200, bool)
+    one[:4] = True
+    touching(one)
+    assert not few(1, 0.0, 1.0)                     # at least 4
+    one[4] = True
+    touching(one)
+    assert few(1, 0.0, 1.0)
+
+
+def test_a_real_round_ends_early_on_the_contacts_that_formed_in_it():
+    """On a 3 x 3 swatch tightening onto its crossings (lam = 0.1 from the
+    knitted shape, friction on), a re-anchoring round ends early, unconverged
+    and ``stopped``, after at least ``min_steps``, with more new touching
+    segments than its share; the same round without re-anchoring runs on."""
+    scene = FabricScene(3, 3, elements_per_loop=16, alpha=0.05)
+    model, _, _ = build(scene)
+    Homotopy(model, scene.alpha).apply(0.1)
+    state = model.initial_state()
+    contact = model.contact_model
+    model.contact_report(state)
+    before = fabric_relax._touching(contact)
+    result, _ = fabric_relax._round(model, state, 0.1, 1e-8, 60, reanchor=0.1, min_steps=5)
+    assert result.stopped and not result.converged and 5 <= result.iterations < 60
+    model.contact_report(result.state)
+    after = fabric_relax._touching(contact)
+    assert np.count_nonzero(after & ~before) > max(4, 0.1 * np.count_nonzero(before))
+    whole, _ = fabric_relax._round(model, state, 0.1, 1e-8, result.iterations + 5)
+    assert not whole.stopped and whole.iterations == result.iterations + 5
 
 
 def test_final_rounds_go_on_while_they_contract_and_stop_when_they_do_not(monkeypatch):

@@ -353,3 +353,37 @@ def test_an_element_turned_by_half_a_turn_is_refused_by_name():
             return (np.inf if x[0] > 0.5 else E), g, H, Hp
     with pytest.raises(RelaxationError, match=r"left the model \(the reason\)"):
         minimize(Beyond(1.3), np.zeros(1), tol=1e-10, max_iter=500)
+
+
+def test_a_stop_ends_the_minimisation_unconverged_where_it_was():
+    """``stop(iteration, E, residual)`` is asked before every step, the start
+    included; when it says so the minimisation returns the state it has
+    reached, unconverged and ``stopped``, its history the steps taken."""
+    from scipy import sparse
+
+    class Quartic:
+        def evaluate(self, x, hessian=True):
+            E = float(np.sum(x ** 4) + np.sum(x ** 2))
+            g = 4.0 * x ** 3 + 2.0 * x
+            if not hessian:
+                return E, g, None, None
+            H = sparse.csr_matrix(sparse.diags(12.0 * x ** 2 + 2.0))
+            return E, g, H, lambda: H
+
+        def residual(self, g):
+            return float(np.linalg.norm(g))
+
+        def retract(self, x, dx):
+            return x + dx
+    asked = []
+
+    def stop(it, E, res):
+        asked.append(it)
+        return it == 3
+    result = minimize(Quartic(), np.full(4, 3.0), tol=1e-12, max_iter=50, stop=stop)
+    assert result.stopped and not result.converged and result.iterations == 3
+    assert asked == [0, 1, 2, 3] and len(result.history) == 3
+    assert result.energy == Quartic().evaluate(result.state)[0] < Quartic().evaluate(
+        np.full(4, 3.0))[0]
+    whole = minimize(Quartic(), np.full(4, 3.0), tol=1e-12, max_iter=50)
+    assert whole.converged and not whole.stopped and whole.iterations > 3

@@ -212,6 +212,8 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         # summed over the increments: a resumed run's whole relaxation time
         "relax_s": float(sum(inc.seconds for inc in eq.increments)),
         "scene": scene.as_dict(), "start_gap_over_d": info["start_gap_over_d"],
+        # the relaxation protocol's options besides the defaults (relax_fabric's)
+        "protocol": dict(relax_options or {}),
         "geometry_inflation": info["inflation"],
         # the pre-stretch the knit yarn still holds at the answer (or last equilibrium)
         "yarn_axial_strain": dict(zip(("median", "max"), yarn_axial_strain(model, eq.state))),

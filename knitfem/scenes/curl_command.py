@@ -5,7 +5,7 @@
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
                  [--bindoff-prestretch] [--tail-ties 1] [--paths default,coarse]
-                 [--out DIR]
+                 [--reanchor SHARE] [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model: ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
@@ -124,6 +124,11 @@ OPTIONS = OptionSet(
          help="beam: radius inflation the swatch is knitted with, a fraction (default: the "
          "smallest multiple of 0.02 that keeps every pair outside the contact skin; it grows "
          "as --elements-per-loop falls: give one to hold the knitted geometry fixed)"),
+    Real("--reanchor", None, "(0, 10]", when=("model", "beam", "the bspline model is "
+         "frictionless"), help="beam: end a friction round early, to anchor the friction of "
+         "the contacts formed in it, once the segments that came into contact exceed this "
+         "share of those touching at the round's start (at least 4; default: rounds run "
+         "whole; README: 'Re-anchoring as contacts form')"),
     Check(_yarn_fits),
     RESUME,
     Check(_beam_only_flags),
@@ -193,14 +198,16 @@ def run(args):
                                 tail_ties=args.tail_ties,
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
+            protocol = {"reanchor": args.reanchor} if args.reanchor is not None else None
             if args.paths is not None:
                 from .curl_paths import curl_paths, parse_paths
                 summary = curl_paths(scene, parse_paths(args.paths), out=args.out,
                                      render=not args.no_render, progress=not args.quiet,
-                                     resume=args.resume)
+                                     resume=args.resume, relax_options=protocol)
             else:
                 summary = curl(scene, out=args.out, render=not args.no_render,
-                               progress=not args.quiet, resume=args.resume)
+                               progress=not args.quiet, resume=args.resume,
+                               relax_options=protocol)
         verdict = f"{summary['curl']} curl" if summary["curl"] is not None else \
             f"relaxation failed: {summary['error']}"
         write_summary(args, summary, f"{verdict}, converged {summary['converged']}, "

@@ -75,7 +75,8 @@ def combine(summaries, names):
     return base
 
 
-def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=False):
+def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=False,
+               relax_options=None):
     """Relax ``scene`` along each schedule of ``names`` (keys of
     :data:`SCHEDULES`) and return :func:`combine`'s summary.  With ``out``
     each path writes into ``out/path_<name>/`` (its own checkpoint: ``resume``
@@ -91,7 +92,8 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
             summaries.append(json.loads(done.read_text()))
             continue
         summaries.append(curl(scene, out=folder, render=render, progress=progress,
-                              resume=resume, relax_options=SCHEDULES[name]))
+                              resume=resume,
+                              relax_options={**SCHEDULES[name], **(relax_options or {})}))
     summary = combine(summaries, names)
     if out is not None:
         (out / f"curl_{scene.nw}x{scene.nc}.json").write_text(json.dumps(summary, indent=2))

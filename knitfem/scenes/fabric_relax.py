@@ -12,7 +12,10 @@ straight, pre-stretched yarn (lam = 1) in quasi-static increments:
    touching points) are taken at the start of a round and kept while the
    round minimises; the next round (or increment) updates them, carrying each
    point's slip over (:mod:`knitfem.contact.friction`): contacts that formed
-   during a round get their friction in the next;
+   during a round get their friction in the next (with ``reanchor``, off by
+   default, a round ends early once enough contacts have formed, so they get
+   it sooner: fewer steps, another path -- README, "re-anchoring as contacts
+   form");
 3. the increments on the way are solved to ``path_tol`` (1e-3), the last one
    to ``tol``; an increment grows after easy increments and is halved (from
    the last equilibrium and its friction anchors) when ``max_rounds`` rounds
@@ -106,8 +109,41 @@ def _gap_watch(model, sink):
     return hook
 
 
-def _round(model, state, lam, tol, iterations, progress=None):
-    """One friction round: re-anchor (carrying slips) and minimise."""
+def _touching(contact):
+    """The yarn segments in contact at the contact model's last evaluation
+    (a boolean mask), None without a report."""
+    report = contact.report
+    if report is None or report.segment_gap is None:
+        return None
+    return report.segment_gap < contact.segments.law.g0
+
+
+def _contacts_formed(contact, share, min_steps):
+    """A minimize ``stop``: True once more segments have come into contact
+    since the round began than ``share`` of those touching then (at least
+    4), after ``min_steps`` steps.  Those contacts carry no friction until
+    the next round anchors them, so the round is minimising a frictionless
+    problem there: the yarns slide on along it and the round hovers (issue 9)."""
+    start = [None]
+
+    def stop(it, E, res):
+        touching = _touching(contact)
+        if touching is None:
+            return False
+        if it == 0:
+            start[0] = touching
+            return False
+        if it < min_steps or start[0] is None:
+            return False
+        new = int(np.count_nonzero(touching & ~start[0]))
+        return new > max(4, share * int(np.count_nonzero(start[0])))
+    return stop
+
+
+def _round(model, state, lam, tol, iterations, progress=None, reanchor=None, min_steps=10):
+    """One friction round: re-anchor (carrying slips) and minimise; with
+    ``reanchor`` (a share, see :func:`_contacts_formed`) the round ends early,
+    unconverged and ``stopped``, once that many new contacts have formed."""
     contact = model.contact_model
     if contact is not None:
         contact.anchor_friction(state.x, state.q)
@@ -119,8 +155,11 @@ def _round(model, state, lam, tol, iterations, progress=None):
         hook(it, E, res)
         if progress is not None:
             progress(lam, it, E, res)
+    stop = None
+    if reanchor and contact is not None and contact.friction > 0.0:
+        stop = _contacts_formed(contact, reanchor, min_steps)
     result = minimize(problem, state, tol=tol, max_iter=iterations, progress=both,
-                      raise_on_failure=False)
+                      raise_on_failure=False, stop=stop)
     return result, gap[0]
 
 
@@ -164,15 +203,19 @@ def _contracting(ends, moves=()):
 
 
 def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=None,
-               min_rounds=1, start=None, on_round=None, extra_rounds=0):
+               min_rounds=1, start=None, on_round=None, extra_rounds=0, reanchor=None):
     """Friction rounds at lam until one converges (after at least
     ``min_rounds``) and moved no node more than ``creep`` (the lagged normal
     forces have settled), or ``max_rounds`` rounds of which the last
     converged; up to ``extra_rounds`` more while the rounds' final residuals
-    or their moves keep shrinking (:func:`_contracting`).  Returns (result, Increment) or
-    (None, reason, Increment with accepted False: the work the failed attempt
-    cost).  ``start``: a :class:`Partial` to continue; ``on_round(Partial)``
-    after every round that another may follow."""
+    or their moves keep shrinking (:func:`_contracting`).  With ``reanchor``
+    a round may end early to anchor the contacts that formed in it
+    (:func:`_contacts_formed`); such rounds do not count as rounds (nor
+    in the shrinking test), and once they have spent ``max_rounds x
+    iterations`` steps the increment's rounds run whole.  Returns (result,
+    Increment) or (None, reason, Increment with accepted False: the work the
+    failed attempt cost).  ``start``: a :class:`Partial` to continue;
+    ``on_round(Partial)`` after every round that another may follow."""
     t = time.perf_counter()
     total, gap, result, first, before = 0, np.inf, None, 0, 0.0
     if start is not None:
@@ -186,17 +229,28 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     ends = list(start.ends) if start is not None else []
     moves = list(start.moves) if start is not None else []
     arm = _smallest_radius(model) or 0.0
-    for k in range(first, max_rounds + extra_rounds):
+    early = 0                   # steps spent in rounds ended early
+    k = first
+    while k < max_rounds + extra_rounds:
         if k >= max_rounds and not _contracting(ends, moves):
             break
+        allow = reanchor if early < max_rounds * iterations else None
         try:
-            result, g = _round(model, state, lam, tol, iterations, progress)
+            result, g = _round(model, state, lam, tol, iterations, progress, allow)
         except RelaxationError as err:
             total += len(err.history)
             return failed(f"round {k + 1} at lam = {lam:.4g}: {err}")
         total += result.iterations
-        ends.append(result.residual)
         gap = min(gap, g)
+        if result.stopped:
+            early += result.iterations
+            state = result.state
+            if on_round is not None:
+                on_round(Partial(lam, state, k, total, gap, before + time.perf_counter() - t,
+                                 contact.friction_state() if contact is not None else None,
+                                 ends=tuple(ends), moves=tuple(moves)))
+            continue
+        ends.append(result.residual)
         # a round that only turns frames has not settled either: turns count
         # as the move of a point on the yarn's surface
         turned = np.linalg.norm(spatial_turn(result.state.q, state.q), axis=1)
@@ -206,17 +260,18 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         state = result.state
         if result.converged and (k >= min_rounds - 1) and moved <= creep:
             break
+        k += 1
         # a checkpoint only where another round follows: one written after the
         # last round would resume into no round at all, without its result
-        more = k + 1 < max_rounds or (k + 1 < max_rounds + extra_rounds
-                                      and _contracting(ends, moves))
+        more = k < max_rounds or (k < max_rounds + extra_rounds
+                                  and _contracting(ends, moves))
         if on_round is not None and more:
-            on_round(Partial(lam, state, k + 1, total, gap, before + time.perf_counter() - t,
+            on_round(Partial(lam, state, k, total, gap, before + time.perf_counter() - t,
                              contact.friction_state() if contact is not None else None,
                              ends=tuple(ends), moves=tuple(moves)))
     if result is None or not result.converged:
         residual = f"{result.residual:.2e}" if result is not None else "not computed"
-        return failed(f"no converged friction round at lam = {lam:.4g} in {first + len(ends)} rounds "
+        return failed(f"no converged friction round at lam = {lam:.4g} in {k} rounds "
                       f"(residual {residual})")
     return result, Increment(lam, total, result.residual, result.energy, gap,
                              before + time.perf_counter() - t, True, moved)
@@ -224,7 +279,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
 
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=DLAM,
                  dlam_max=DLAM_MAX, dlam_min=1e-3, iterations=200, max_rounds=4, creep=None,
-                 progress=None, checkpoint=None, partial=None, increments=()):
+                 progress=None, checkpoint=None, partial=None, increments=(), reanchor=None):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
     to lam = 1 (see the module docstring).
 
@@ -240,8 +295,11 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     (partial a :class:`Partial`; the model's friction anchors are then the
     round's, those of the equilibrium at lam are ``partial.equilibrium``).
     To resume, pass state, lam, dlam, the partial and the increments so far
-    back, with the equilibrium's anchors in the contact model.  Returns
-    :class:`FabricEquilibrium`.
+    back, with the equilibrium's anchors in the contact model.  reanchor :
+    None (rounds run whole) or a share: a round ends early once the
+    segments that came into contact in it exceed that share of those touching
+    at its start (:func:`_contacts_formed`; see :func:`_increment` for how
+    such rounds are counted).  Returns :class:`FabricEquilibrium`.
     """
     state = model.initial_state() if state is None else state
     if creep is None:
@@ -273,7 +331,7 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
                                            iterations, 2 * max_rounds if last else max_rounds,
                                            creep if last else np.inf, progress,
                                            2 if last else 1, partial, on_round,
-                                           2 * max_rounds if last else 0)
+                                           2 * max_rounds if last else 0, reanchor)
         partial = None
         if result is None:
             # the failed attempt's work counts (iterations, time), not its path

@@ -68,6 +68,7 @@ class Relaxed:
     iterations: int
     converged: bool
     history: list = field(default_factory=list)   # (E, residual, mu, t, hessian used, step cap)
+    stopped: bool = False   # ended unconverged by the caller's ``stop``
 
 
 def _factor(H, D, mu, factorize=Cholesky):
@@ -75,14 +76,17 @@ def _factor(H, D, mu, factorize=Cholesky):
 
 
 def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progress=None,
-             raise_on_failure=True):
+             raise_on_failure=True, stop=None):
     """Minimise the problem's energy from ``x0`` until ``residual(g) <= tol``.
 
     Returns :class:`Relaxed`; raises :class:`RelaxationError` (keeping the
     state) when mu exceeds its bound (no descent left: a kink or a wrong
     gradient) or after ``max_iter`` iterations, unless ``raise_on_failure`` is
     False (then ``converged`` says so).  ``progress(iteration, E, residual)``
-    is called after every iteration.
+    is called after every iteration; ``stop(iteration, E, residual)``, before
+    every step (the problem's last evaluation is then the current state;
+    iteration 0 is the start), may end the minimisation unconverged
+    (``stopped``): the caller wants to change the problem first.
     """
     x = x0
     E, g, H, Hp = problem.evaluate(x, True)
@@ -102,6 +106,8 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
             return Relaxed(x, E, res, it, True, history)
         if it == max_iter:
             break
+        if stop is not None and stop(it, E, res):
+            return Relaxed(x, E, res, it, False, history, stopped=True)
         D = np.abs(H.diagonal())
         D = np.maximum(D, 1e-12 * max(D.max(), 1e-300))
         used = None
