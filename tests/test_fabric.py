@@ -133,8 +133,8 @@ def relaxed_3x4(tmp_path_factory):
     out = tmp_path_factory.mktemp("curl")
     kept, save = [], curl_module._save_checkpoint
 
-    def keep(path, *args):
-        save(path, *args)
+    def keep(path, *args, **kwargs):
+        save(path, *args, **kwargs)
         kept.append(path.read_bytes())
     curl_module._save_checkpoint = keep
     try:
@@ -440,6 +440,33 @@ def test_rounds_ended_for_new_contacts_do_not_count_as_rounds(monkeypatch):
     assert result is None and calls == [None] and "in 1 rounds" in reason
 
 
+def test_a_resume_keeps_the_early_rounds_budget_and_refuses_another_protocol(monkeypatch,
+                                                                            tmp_path):
+    """The steps already spent in rounds ended early survive a checkpoint, so a
+    resumed increment does not get a fresh budget of them; a checkpoint made
+    under one relaxation protocol refuses to resume under another (the
+    protocol decides the path, and at 8 x 8 the curl type)."""
+    from knitfem.scenes import curl as curl_module
+    scene = FabricScene(3, 3, elements_per_loop=16)
+    model, _, _ = build(scene)
+    state = model.initial_state()
+    partial = fabric_relax.Partial(0.5, state, 1, 30, np.inf, 0.0, ends=(1e-2,), moves=(0.1,),
+                                   early=20)
+    path = tmp_path / "checkpoint.npz"
+    curl_module._save_checkpoint(path, scene, state, 0.4, 0.1, [], None, partial,
+                                 protocol={"reanchor": 0.2})
+    assert curl_module.load_checkpoint(path, scene, model, {"reanchor": 0.2})[4].early == 20
+    for other in (None, {"reanchor": 0.1}):
+        with pytest.raises(ValueError, match="another relaxation protocol"):
+            curl_module.load_checkpoint(path, scene, model, other)
+    calls = []
+    _rounds_ending_early(monkeypatch, ["stop", 1e-4], calls)
+    spent = fabric_relax.Partial(0.5, state, 0, 10, np.inf, 0.0, early=10)
+    result, inc = fabric_relax._increment(model, state, 0.5, 1e-3, 5, 2, np.inf, start=spent,
+                                          reanchor=0.2)
+    assert result is not None and calls == [None, None] and inc.iterations == 10 + 1 + 1
+
+
 def test_a_round_ends_once_contacts_have_formed_without_friction():
     """The stop of a re-anchoring round counts the segments touching now
     (gap below the law's reach) that were not touching at the round's start:
@@ -615,10 +642,11 @@ def test_an_answer_whose_friction_did_not_settle_says_so(monkeypatch, move, sett
     class Result:
         pass
 
-    def moving(model, state, lam, tol, iterations, progress=None):
+    def moving(model, state, lam, tol, iterations, progress=None, reanchor=None):
         result = Result()
         result.state = BeamState(state.x + [move * r, 0.0, 0.0], state.q)
         result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
+        result.stopped = False
         return result, np.inf
     monkeypatch.setattr(fabric_relax, "_round", moving)
     eq = fabric_relax.relax_fabric(model, Homotopy(model, 0.05), dlam=1.0)

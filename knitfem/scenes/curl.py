@@ -28,11 +28,14 @@ from .fabric_relax import FabricRelaxationError, relax_fabric
 VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
 
 
-def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial=None):
+def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial=None, *,
+                     protocol=None):
     """Atomically write the relaxation's state after an increment, or after a
-    friction round of the increment under way (``partial``)."""
+    friction round of the increment under way (``partial``); ``protocol``: the
+    relaxation options the run was given."""
     data = {"x": state.x, "q": state.q, "lam": lam, "dlam": dlam,
             "scene": json.dumps(scene.as_dict(), sort_keys=True),
+            "protocol": json.dumps(protocol or {}, sort_keys=True),
             "increments": np.array([[i.lam, i.iterations, i.residual, i.energy, i.min_gap,
                                      i.seconds, i.accepted, i.moved] for i in increments])}
     anchors = [("", partial.equilibrium if partial is not None else
@@ -42,7 +45,8 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
                     partial_numbers=np.array([partial.target, partial.rounds, partial.iterations,
                                               partial.min_gap, partial.seconds]),
                     partial_ends=np.array(partial.ends, dtype=float),
-                    partial_moves=np.array(partial.moves, dtype=float))
+                    partial_moves=np.array(partial.moves, dtype=float),
+                    partial_early=np.array(partial.early))
         anchors.append(("partial_", partial.friction))
     for prefix, friction in anchors:
         if friction is not None and friction[0] is not None:
@@ -65,9 +69,11 @@ def checkpoint_scene(data):
     return FabricScene(**{**defaults, **json.loads(str(data["scene"]))})
 
 
-def load_checkpoint(path, scene, model):
+def load_checkpoint(path, scene, model, protocol=None):
     """(state, lam, dlam, increments, partial) from a checkpoint of the same
-    scene, or None; the contact model gets the equilibrium's friction anchors."""
+    scene and relaxation ``protocol`` (options; a checkpoint from before they
+    were kept ran the defaults), or None; the contact model gets the
+    equilibrium's friction anchors."""
     from ..beam.model import BeamState
     from ..contact.friction import Anchors
     from .fabric_relax import Increment, Partial
@@ -80,6 +86,12 @@ def load_checkpoint(path, scene, model):
                            for k in sorted(saved) if saved[k] != given[k])
         raise ValueError(f"--resume: {path} holds a run with other parameters ({differ}); "
                          "remove it or give the same options")
+    # the protocol decides the path, and with it the answer (README, --reanchor)
+    kept = json.loads(str(data["protocol"])) if "protocol" in data.files else {}
+    if json.dumps(kept, sort_keys=True) != json.dumps(protocol or {}, sort_keys=True):
+        raise ValueError(f"--resume: {path} holds a run with another relaxation protocol "
+                         f"(checkpoint {kept}, given {protocol or {}}); remove it or give the "
+                         "same options")
 
     def friction(prefix):
         if prefix + "anchor_key" not in data.files:
@@ -103,7 +115,9 @@ def load_checkpoint(path, scene, model):
                           friction("partial_"),
                           ends=tuple(data["partial_ends"]) if "partial_ends" in data.files else (),
                           moves=tuple(data["partial_moves"]) if "partial_moves" in data.files
-                          else ())
+                          else (),
+                          early=int(data["partial_early"]) if "partial_early" in data.files
+                          else 0)
     return (BeamState(data["x"], data["q"]), float(data["lam"]), float(data["dlam"]),
             increments, partial)
 
@@ -127,7 +141,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     if out is not None:
         (out / "path").mkdir(parents=True, exist_ok=True)
         if resume:
-            start = load_checkpoint(checkpoint_path, scene, model)
+            start = load_checkpoint(checkpoint_path, scene, model, relax_options)
         elif checkpoint_path.exists():
             checkpoint_path.unlink()
     bar = None
@@ -152,7 +166,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
             frames.append((write_beam_state(out / "path" / f"step_{step:03d}.vtu",
                                             model, state), lam))
         _save_checkpoint(checkpoint_path, scene, state, lam, dlam, increments,
-                         model.contact_model, partial)
+                         model.contact_model, partial, protocol=relax_options)
 
     kwargs = {}
     if start is not None:
@@ -212,7 +226,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         # summed over the increments: a resumed run's whole relaxation time
         "relax_s": float(sum(inc.seconds for inc in eq.increments)),
         "scene": scene.as_dict(), "start_gap_over_d": info["start_gap_over_d"],
-        # the relaxation protocol's options besides the defaults (relax_fabric's)
+        # the options relax_fabric was given (none: its defaults)
         "protocol": dict(relax_options or {}),
         "geometry_inflation": info["inflation"],
         # the pre-stretch the knit yarn still holds at the answer (or last equilibrium)

@@ -127,7 +127,7 @@ OPTIONS = OptionSet(
     Real("--reanchor", None, "(0, 10]", when=("model", "beam", "the bspline model is "
          "frictionless"), help="beam: end a friction round early, to anchor the friction of "
          "the contacts formed in it, once the segments that came into contact exceed this "
-         "share of those touching at the round's start (at least 4; default: rounds run "
+         "share of those touching at the round's start (and 4; default: rounds run "
          "whole; README: 'Re-anchoring as contacts form')"),
     Check(_yarn_fits),
     RESUME,

@@ -120,8 +120,8 @@ def _touching(contact):
 
 def _contacts_formed(contact, share, min_steps):
     """A minimize ``stop``: True once more segments have come into contact
-    since the round began than ``share`` of those touching then (at least
-    4), after ``min_steps`` steps.  Those contacts carry no friction until
+    since the round began than ``share`` of those touching then (and more
+    than 4), after ``min_steps`` steps.  Those contacts carry no friction until
     the next round anchors them, so the round is minimising a frictionless
     problem there: the yarns slide on along it and the round hovers (issue 9)."""
     start = [None]
@@ -181,6 +181,7 @@ class Partial:
     equilibrium: tuple = None    # of the equilibrium at the increment's start
     ends: tuple = ()             # the rounds' final residuals (the extra rounds' test)
     moves: tuple = ()            # how far each round moved the swatch (length; the same)
+    early: int = 0               # steps spent in rounds ended early (``reanchor``)
 
 
 def _smallest_radius(model):
@@ -212,7 +213,8 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     a round may end early to anchor the contacts that formed in it
     (:func:`_contacts_formed`); such rounds do not count as rounds (nor
     in the shrinking test), and once they have spent ``max_rounds x
-    iterations`` steps the increment's rounds run whole.  Returns (result,
+    iterations`` steps (kept across a resume) the increment's rounds run
+    whole.  Returns (result,
     Increment) or (None, reason, Increment with accepted False: the work the
     failed attempt cost).  ``start``: a :class:`Partial` to continue;
     ``on_round(Partial)`` after every round that another may follow."""
@@ -229,7 +231,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     ends = list(start.ends) if start is not None else []
     moves = list(start.moves) if start is not None else []
     arm = _smallest_radius(model) or 0.0
-    early = 0                   # steps spent in rounds ended early
+    early = start.early if start is not None else 0    # steps of rounds ended early
     k = first
     while k < max_rounds + extra_rounds:
         if k >= max_rounds and not _contracting(ends, moves):
@@ -248,7 +250,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
             if on_round is not None:
                 on_round(Partial(lam, state, k, total, gap, before + time.perf_counter() - t,
                                  contact.friction_state() if contact is not None else None,
-                                 ends=tuple(ends), moves=tuple(moves)))
+                                 ends=tuple(ends), moves=tuple(moves), early=early))
             continue
         ends.append(result.residual)
         # a round that only turns frames has not settled either: turns count
@@ -268,7 +270,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         if on_round is not None and more:
             on_round(Partial(lam, state, k, total, gap, before + time.perf_counter() - t,
                              contact.friction_state() if contact is not None else None,
-                             ends=tuple(ends), moves=tuple(moves)))
+                             ends=tuple(ends), moves=tuple(moves), early=early))
     if result is None or not result.converged:
         residual = f"{result.residual:.2e}" if result is not None else "not computed"
         return failed(f"no converged friction round at lam = {lam:.4g} in {k} rounds "
