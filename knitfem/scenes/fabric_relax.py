@@ -214,10 +214,10 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     (:func:`_contacts_formed`); such rounds do not count as rounds (nor
     in the shrinking test), and once they have spent ``max_rounds x
     iterations`` steps (kept across a resume) the increment's rounds run
-    whole.  Returns (result,
-    Increment) or (None, reason, Increment with accepted False: the work the
-    failed attempt cost).  ``start``: a :class:`Partial` to continue;
-    ``on_round(Partial)`` after every round that another may follow."""
+    whole.  Returns (result, Increment) or (None, reason, Increment with
+    accepted False: the work the failed attempt cost).  ``start``: a
+    :class:`Partial` to continue; ``on_round(Partial)`` after every round
+    that another may follow."""
     t = time.perf_counter()
     total, gap, result, first, before = 0, np.inf, None, 0, 0.0
     if start is not None:
