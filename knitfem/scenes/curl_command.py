@@ -128,7 +128,7 @@ OPTIONS = OptionSet(
          "frictionless"), help="beam: end a friction round early, to anchor the friction of "
          "the contacts formed in it, once the segments that came into contact exceed this "
          "share of those touching at the round's start (and 4; default: rounds run "
-         "whole; README: 'Re-anchoring as contacts form')"),
+         "whole; README: 'Re-anchoring as contacts form')", metavar="SHARE"),
     Check(_yarn_fits),
     RESUME,
     Check(_beam_only_flags),
