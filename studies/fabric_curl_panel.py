@@ -71,7 +71,7 @@ def panel(runs, out):
         for row, view in enumerate(VIEWS):
             axes[row, k].imshow(plt.imread(paths[view]))
             axes[row, k].axis("off")
-    fig.suptitle("Relaxed plain-knit swatches (beam model); edge rolls in degrees, positive "
+    fig.suptitle("Relaxed plain-knit swatches (beam model)\nedge rolls in degrees, positive "
                  "toward the front (knit face, +z)", fontsize=12)
     fig.tight_layout()
     from knitfem.io.atomic import atomic_path
