@@ -1,4 +1,7 @@
-"""Output analysis of deformed yarn centrelines (no mechanics): curl classification."""
+"""Output analysis of deformed yarn centrelines (no mechanics): curl classification and
+roll profiles."""
 from .curl import CurlShape, curl_shape, loop_centres, point_courses, swatch_curl
+from .profile import RollProfile, roll_profile, swatch_roll_profile
 
-__all__ = ["CurlShape", "curl_shape", "loop_centres", "point_courses", "swatch_curl"]
+__all__ = ["CurlShape", "curl_shape", "loop_centres", "point_courses", "swatch_curl",
+           "RollProfile", "roll_profile", "swatch_roll_profile"]
