@@ -16,7 +16,6 @@ import json
 from pathlib import Path
 
 import matplotlib
-import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -44,12 +43,10 @@ def label(summary):
 def plot(results, png):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     for (summary, p), colour in zip(results, plt.cm.tab10.colors):
-        for ax, s, angle, k in ((axes[0], p.s_x, p.theta, p.interior_curvature_x),
-                                (axes[1], p.s_y, p.phi, p.interior_curvature_y)):
+        for ax, s, angle, line in ((axes[0], p.s_x, p.theta, p.theta_fit),
+                                   (axes[1], p.s_y, p.phi, p.phi_fit)):
             ax.plot(s, angle, "o-", ms=3, color=colour, label=label(summary))
-            inner = np.abs(np.arange(len(s)) - 0.5 * (len(s) - 1)) <= len(s) / 4.0
-            fit = np.polyfit(s[inner], angle[inner], 1)
-            ax.plot(s, np.polyval(fit, s), "--", lw=0.8, color=colour)
+            ax.plot(s, line, "--", lw=0.8, color=colour)
     axes[0].set(xlabel="arclength from the centre along the rows, x (mm)",
                 ylabel="tangent angle relative to the centre (deg, + to the front)",
                 title="rows (side edges at the ends)")

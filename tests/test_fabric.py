@@ -178,6 +178,10 @@ def test_small_swatch_relaxes_to_a_converged_stable_equilibrium(relaxed_3x4):
     assert 0.0 <= summary["contact_overlap_share"] < 1.0
     assert np.isfinite(list(summary["yarn_axial_strain"].values())).all()
     assert json.loads((out / "curl_3x4.json").read_text())["residual"] == summary["residual"]
+    # the roll profile's keys come with the answer (values: test_roll_profile)
+    assert set(summary["local_roll_deg"]) == set(summary["roll_deg"])
+    assert np.isfinite([*summary["local_roll_deg"].values(), summary["interior_curvature_x"],
+                        summary["interior_curvature_y"]]).all()
 
 
 def _is_partial(blob):

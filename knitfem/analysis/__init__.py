@@ -1,7 +1,7 @@
 """Output analysis of deformed yarn centrelines (no mechanics): curl classification and
 roll profiles."""
 from .curl import CurlShape, curl_shape, loop_centres, point_courses, swatch_curl
-from .profile import RollProfile, roll_profile, swatch_roll_profile
+from .profile import RollProfile, profile_fields, roll_profile, swatch_roll_profile
 
 __all__ = ["CurlShape", "curl_shape", "loop_centres", "point_courses", "swatch_curl",
-           "RollProfile", "roll_profile", "swatch_roll_profile"]
+           "RollProfile", "profile_fields", "roll_profile", "swatch_roll_profile"]

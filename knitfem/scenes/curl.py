@@ -132,6 +132,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     (at homotopy ``lam`` < 1, not the swatch's answer) is kept apart under
     ``"last_equilibrium"``."""
     from ..analysis.curl import swatch_curl
+    from ..analysis.profile import profile_fields
     t0 = time.perf_counter()
     model, swatch, info = build(scene)
     homotopy = Homotopy(model, scene.alpha, bindoff=scene.bindoff_prestretch)
@@ -192,7 +193,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         "roll_deg": {k: float(v) for k, v in shape.roll_deg.items()},
         "curvature_x": shape.curvature_x, "curvature_y": shape.curvature_y,
         "height_over_width": shape.height_over_width, "height": shape.height,
-        "loop_aspect": shape.loop_aspect}
+        "loop_aspect": shape.loop_aspect, **profile_fields(eq.state.x, swatch)}
     if failure is not None:
         # a half-relaxed swatch is not the answer: its shape is kept, labelled
         fields_ = {"last_equilibrium": dict(fields_, lam=failure.lam),

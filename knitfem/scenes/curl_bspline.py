@@ -167,6 +167,7 @@ def bspline_curl_from_options(args):
 def summarise(bs, y, info):
     """Issue 9's keys for the state y of swatch ``bs`` (relaxation ``info``)."""
     from ..analysis.curl import swatch_curl
+    from ..analysis.profile import profile_fields
     model = bs.model
     q = model.control_points(y)
     shape = swatch_curl(bs.points(q), bs.swatch)
@@ -181,6 +182,7 @@ def summarise(bs, y, info):
         "alpha": bs.alpha, "curl": shape.curl, "edges_touch": bool(shape.edges_touch),
         "roll_deg": {k: float(v) for k, v in shape.roll_deg.items()},
         "curvature_x": float(shape.curvature_x), "curvature_y": float(shape.curvature_y),
+        **profile_fields(bs.points(q), bs.swatch),
         "height": float(shape.height), "height_over_width": float(shape.height_over_width),
         "converged": bool(info["converged"]), "residual": info["residual"],
         "stable": is_stable, "lowest_eigenvalue": lowest,
