@@ -23,6 +23,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 EDGES = ("left", "right", "top", "bottom")
 
 
+def named(summaries, paths):
+    """Row names: size and alpha, with the run's folder when those repeat."""
+    base = [f"{s['nw']} × {s['nc']}, α {s['alpha']:g}" for s in summaries]
+    return [f"{b} ({Path(p).parent.name})" if base.count(b) > 1 else b
+            for b, p in zip(base, paths)]
+
+
 def profile_of(summary_path):
     """(summary, RollProfile) of one run."""
     import meshio
@@ -36,16 +43,12 @@ def profile_of(summary_path):
     return summary, swatch_roll_profile(points, swatch)
 
 
-def label(summary):
-    return f"{summary['nw']} x {summary['nc']}, α {summary['alpha']:g}: {summary['curl']}"
-
-
-def plot(results, png):
+def plot(results, names, png):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-    for (summary, p), colour in zip(results, plt.cm.tab10.colors):
+    for (summary, p), name, colour in zip(results, names, plt.cm.tab10.colors):
         for ax, s, angle, line in ((axes[0], p.s_x, p.theta, p.theta_fit),
                                    (axes[1], p.s_y, p.phi, p.phi_fit)):
-            ax.plot(s, angle, "o-", ms=3, color=colour, label=label(summary))
+            ax.plot(s, angle, "o-", ms=3, color=colour, label=f"{name}: {summary['curl']}")
             ax.plot(s, line, "--", lw=0.8, color=colour)
     axes[0].set(xlabel="arclength from the centre along the rows, x (mm)",
                 ylabel="tangent angle relative to the centre (deg, + to the front)",
@@ -62,14 +65,13 @@ def plot(results, png):
     plt.close(fig)
 
 
-def table(results):
+def table(results, names):
     rows = ["| run | curl | rolls L / R / T / B (deg) | local rolls L / R / T / B (deg) | "
             "κ_x, κ_y classification (1/mm) | κ_x, κ_y interior (1/mm) |",
             "|---|---|---|---|---|---|"]
-    for summary, p in results:
+    for (summary, p), name in zip(results, names):
         r, loc = summary["roll_deg"], p.local_roll_deg
-        rows.append(f"| {summary['nw']} × {summary['nc']}, α {summary['alpha']:g} | "
-                    f"{summary['curl']} | " + " / ".join(f"{r[e]:+.0f}" for e in EDGES)
+        rows.append(f"| {name} | {summary['curl']} | " + " / ".join(f"{r[e]:+.0f}" for e in EDGES)
                     + " | " + " / ".join(f"{loc[e]:+.0f}" for e in EDGES)
                     + f" | {summary['curvature_x']:+.3f}, {summary['curvature_y']:+.3f} | "
                     f"{p.interior_curvature_x:+.3f}, {p.interior_curvature_y:+.3f} |")
@@ -84,8 +86,9 @@ def main():
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     results = [profile_of(path) for path in args.runs]
-    plot(results, out / "roll_profile.png")
-    text = table(results)
+    names = named([summary for summary, _ in results], args.runs)
+    plot(results, names, out / "roll_profile.png")
+    text = table(results, names)
     (out / "roll_profile.md").write_text(f"`python studies/roll_profile.py --runs "
                                          f"{' '.join(args.runs)} --out {args.out}`\n\n" + text)
     print(text, end="")
