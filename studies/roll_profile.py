@@ -45,7 +45,8 @@ def profile_of(summary_path):
 
 def plot(results, names, png):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-    for (summary, p), name, colour in zip(results, names, plt.cm.tab10.colors):
+    for k, ((summary, p), name) in enumerate(zip(results, names)):
+        colour = plt.cm.tab20(k % 20)
         for ax, s, angle, line in ((axes[0], p.s_x, p.theta, p.theta_fit),
                                    (axes[1], p.s_y, p.phi, p.phi_fit)):
             ax.plot(s, angle, "o-", ms=3, color=colour, label=f"{name}: {summary['curl']}")
