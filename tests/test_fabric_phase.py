@@ -4,6 +4,7 @@ CSV and the markers (a not-converged point hollow), the Dask path and a
 killed + resumed study giving the local pool's rows."""
 import csv
 import json
+import math
 import os
 from pathlib import Path
 import signal
@@ -58,6 +59,9 @@ def test_curl_point_relaxes_the_smallest_bspline_swatch_end_to_end(tmp_path):
     assert set(result["roll_deg"]) == {"left", "right", "top", "bottom"}
     # mirror symmetry of the 3-wale swatch: left and right rolls agree
     assert result["roll_deg"]["left"] == pytest.approx(result["roll_deg"]["right"], abs=1e-6)
+    # the roll profile is kept with the point (its values: test_roll_profile)
+    assert set(result["local_roll_deg"]) == set(result["roll_deg"])
+    assert all(math.isfinite(v) for v in result["local_roll_deg"].values())
     assert result["height"] == pytest.approx(result["height_over_width"] * 3 * 4.0, rel=1e-12)
     assert result["loop_aspect"] > 0
     assert {"curl.vtu", "curl.json", "curl_control.npy"} <= {p.name for p in tmp_path.iterdir()}

@@ -28,7 +28,8 @@ import tempfile
 MODELS = ("bspline", "beam")
 ROLLS = ("left", "right", "top", "bottom")
 COLUMNS = ("nw", "nc", "nw_over_nc", "model", "status", "curl",
-           *(f"roll_{k}" for k in ROLLS), "curvature_x", "curvature_y", "height",
+           *(f"roll_{k}" for k in ROLLS), "curvature_x", "curvature_y",
+           *(f"local_roll_{k}" for k in ROLLS), "height",
            "height_over_width", "loop_aspect", "edges_touch", "converged", "stable",
            "friction_settled", "residual", "curl_types", "elapsed_s", "message", "error")
 # curl options of each model (the keys :func:`curl_point` passes on)
@@ -38,8 +39,8 @@ BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiff
                 "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch",
                 "tail_ties", "paths")
 # what a point keeps of the model's summary (the rest is in its JSON file)
-KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "height", "height_over_width",
-        "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",
+KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "local_roll_deg", "height",
+        "height_over_width", "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",
         "iterations", "max_penetration_over_d", "directions_as_paper", "friction_settled",
         "curl_types", "path_dependent", "chosen_path")
 
@@ -139,6 +140,8 @@ def _row(params, record):
         row["curl_types"] = "|".join(r["curl_types"])
     for k in ROLLS:
         row[f"roll_{k}"] = (r.get("roll_deg") or {}).get(k)
+        # points relaxed before 2026-12-04 have no roll profile: empty cells
+        row[f"local_roll_{k}"] = (r.get("local_roll_deg") or {}).get(k)
     row["converged"] = bool(r.get("converged"))
     return row
 
