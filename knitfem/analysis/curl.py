@@ -181,6 +181,25 @@ def _positive(name, value):
     return v
 
 
+def centre_grid(centres):
+    """``centres`` as a float (n_course >= 4, n_wale >= 3, 3) array of finite
+    loop centres, or a ValueError naming it."""
+    C = np.asarray(centres, dtype=float)
+    if C.ndim != 3 or C.shape[2] != 3 or C.shape[0] < 4 or C.shape[1] < 3:
+        raise ValueError("centres must have shape (n_course >= 4, n_wale >= 3, 3), "
+                         f"got {C.shape}")
+    if not np.isfinite(C).all():
+        raise ValueError("centres must be finite, got NaN or inf")
+    return C
+
+
+def chord_arcs(chord, delta):
+    """Arc lengths of chords ``chord`` whose ends' tangents differ by ``delta``
+    (rad), each lengthened by (delta/2) / sin(delta/2): exact on a circle
+    (delta capped at 3 rad, where the correction stops making sense)."""
+    return chord / np.sinc(np.minimum(np.abs(delta), 3.0) / (2 * np.pi))
+
+
 def _central_block(n):
     """Indices within 1.5 of the centre (n - 1)/2: 3 for odd n, 4 for even."""
     i = np.arange(n)
@@ -224,7 +243,7 @@ def _turning(lines, along, normal):
     n = lines.shape[1]
     centre = at[:, n // 2] if n % 2 else ang[:, n // 2 - 1]
     delta = np.diff(at, axis=1)
-    arc = np.linalg.norm(seg, axis=2) / np.sinc(np.minimum(np.abs(delta), 3.0) / (2 * np.pi))
+    arc = chord_arcs(np.linalg.norm(seg, axis=2), delta)
     return at, centre, arc.sum(axis=1)
 
 
@@ -321,12 +340,7 @@ def curl_shape(centres, w, c, radius, *, points=None, point_course=None,
     touch_gap : length, largest surface gap that counts as contact (default r).
     edge_zone : fraction of the courses in each edge zone (default 1/3).
     Returns a :class:`CurlShape`; definitions in the module docstring."""
-    C = np.asarray(centres, dtype=float)
-    if C.ndim != 3 or C.shape[2] != 3 or C.shape[0] < 4 or C.shape[1] < 3:
-        raise ValueError("centres must have shape (n_course >= 4, n_wale >= 3, 3), "
-                         f"got {C.shape}")
-    if not np.isfinite(C).all():
-        raise ValueError("centres must be finite, got NaN or inf")
+    C = centre_grid(centres)
     w, c, radius = _positive("w", w), _positive("c", c), _positive("radius", radius)
     roll_threshold = _positive("roll_threshold", roll_threshold)
     if roll_threshold >= 180.0:

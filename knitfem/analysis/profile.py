@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .curl import _band, _body_frame, _turning, loop_centres
+from .curl import _band, _body_frame, _turning, centre_grid, chord_arcs, loop_centres
 
 
 @dataclass(frozen=True)
@@ -50,9 +50,7 @@ def _profile(lines, along, normal):
     at, centre, _ = _turning(lines, along, normal)
     angle = np.median(at - centre[:, None], axis=0)
     chord = np.median(np.linalg.norm(np.diff(lines, axis=1), axis=2), axis=0)
-    delta = np.diff(angle)
-    s = np.concatenate([[0.0], np.cumsum(chord / np.sinc(np.minimum(np.abs(delta), 3.0)
-                                                         / (2 * np.pi)))])
+    s = np.concatenate([[0.0], np.cumsum(chord_arcs(chord, np.diff(angle)))])
     n = len(s)
     s -= s[n // 2] if n % 2 else 0.5 * (s[n // 2 - 1] + s[n // 2])
     inner = np.abs(np.arange(n) - 0.5 * (n - 1)) <= max(n / 4.0, 1.0)
@@ -67,12 +65,7 @@ def roll_profile(centres):
 
     centres : (n_course >= 4, n_wale >= 3, 3) loop centres
         (:func:`knitfem.analysis.loop_centres`), length unit (mm)."""
-    C = np.asarray(centres, dtype=float)
-    if C.ndim != 3 or C.shape[2] != 3 or C.shape[0] < 4 or C.shape[1] < 3:
-        raise ValueError("centres must have shape (n_course >= 4, n_wale >= 3, 3), "
-                         f"got {C.shape}")
-    if not np.isfinite(C).all():
-        raise ValueError("centres must be finite, got NaN or inf")
+    C = centre_grid(centres)
     n_course, n_wale = C.shape[:2]
     e_x, e_y, e_z = _body_frame(C)
     s_x, theta, theta_fit, k_x, left, right = _profile(C[_band(n_course)], e_x, e_z)

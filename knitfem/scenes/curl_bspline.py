@@ -170,7 +170,8 @@ def summarise(bs, y, info):
     from ..analysis.profile import profile_fields
     model = bs.model
     q = model.control_points(y)
-    shape = swatch_curl(bs.points(q), bs.swatch)
+    points = bs.points(q)
+    shape = swatch_curl(points, bs.swatch)
     try:
         is_stable, lowest = stability.stability(model, y)
     except Exception as err:              # ARPACK did not converge: not measured, say so
@@ -182,7 +183,7 @@ def summarise(bs, y, info):
         "alpha": bs.alpha, "curl": shape.curl, "edges_touch": bool(shape.edges_touch),
         "roll_deg": {k: float(v) for k, v in shape.roll_deg.items()},
         "curvature_x": float(shape.curvature_x), "curvature_y": float(shape.curvature_y),
-        **profile_fields(bs.points(q), bs.swatch),
+        **profile_fields(points, bs.swatch),
         "height": float(shape.height), "height_over_width": float(shape.height_over_width),
         "converged": bool(info["converged"]), "residual": info["residual"],
         "stable": is_stable, "lowest_eigenvalue": lowest,
