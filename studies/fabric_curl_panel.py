@@ -1,9 +1,9 @@
 """The paper's Fig. 5c analogue: relaxed swatches side by side.
 
-    python studies/fabric_curl_panel.py --runs DIR [DIR ...] --out studies/results/fabric_curl
+    python studies/fabric_curl_panel.py --runs DIR|JSON [...] --out studies/results/fabric_curl
 
 Reads every ``curl_<nw>x<nc>.json`` (and its ``.vtu``) of ``knitfem curl``
-runs in the given folders, renders each relaxed swatch that lacks them (front
+runs in the given folders (or the given summary files), renders each relaxed swatch that lacks them (front
 and iso views, tubes coloured by curvature; a run made with ``--no-render``
 gets its pictures here) and writes ``OUT/curl_panel.png``: one column per
 swatch, ordered by N_w / N_c, titled with its size, curl type, edge rolls and
@@ -26,7 +26,8 @@ def finished_runs(folders):
     """(summary, vtu path) of every converged or unconverged-but-relaxed run."""
     runs = []
     for folder in folders:
-        for path in sorted(Path(folder).glob("curl_*.json")):
+        folder = Path(folder)
+        for path in [folder] if folder.is_file() else sorted(folder.glob("curl_*.json")):
             summary = json.loads(path.read_text())
             vtu = path.with_suffix(".vtu")
             if summary.get("curl") is not None and vtu.exists():
@@ -62,9 +63,11 @@ def panel(runs, out):
     for k, (summary, vtu) in enumerate(runs):
         paths = render(summary, vtu, out)
         r = summary["roll_deg"]
-        mirrored = " (mirrored)" if summary["scene"].get("mirror") else ""
+        scene = summary["scene"]
+        mirrored = " (mirrored)" if scene.get("mirror") else ""
         axes[0, k].set_title(f"N_w × N_c = {summary['nw']} × {summary['nc']}{mirrored}, α = "
-                             f"{summary['alpha']:g}\n{summary['curl']} curl"
+                             f"{summary['alpha']:g}, μ = {scene['friction']:g}\n"
+                             f"{summary['curl']} curl"
                              + ("" if summary["converged"] else " (NOT converged)")
                              + f"\nrolls L/R/T/B {r['left']:.0f}/{r['right']:.0f}/"
                              f"{r['top']:.0f}/{r['bottom']:.0f}°", fontsize=10)
@@ -82,7 +85,7 @@ def panel(runs, out):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--runs", nargs="+", required=True, help="folders of knitfem curl runs")
+    parser.add_argument("--runs", nargs="+", required=True, help="folders of knitfem curl runs, or their summary JSONs")
     parser.add_argument("--out", default="studies/results/fabric_curl")
     args = parser.parse_args()
     out = Path(args.out)
