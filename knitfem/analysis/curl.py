@@ -97,6 +97,8 @@ import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
+from .margin import curl_type, curled_pairs
+
 ROLL_THRESHOLD = 30.0        # deg, an edge pair turned further is curled
 EDGE_ZONE = 1.0 / 3.0        # fraction of the courses in each edge zone
 KNIT_THICKNESS = 4.0         # yarn radii between touching mid-surfaces
@@ -372,19 +374,16 @@ def curl_shape(centres, w, c, radius, *, points=None, point_course=None,
         edge_gap, touch_from = _edge_gap_centres(C, m, radius), "centres"
     edges_touch = bool(edge_gap < touch_gap)
 
-    x_curled = max(abs(left), abs(right)) >= roll_threshold
-    y_curled = max(abs(top), abs(bottom)) >= roll_threshold
-    if y_curled:
-        curl = "double" if x_curled and not edges_touch else "top_bottom"
-    else:
-        curl = "side" if x_curled else "flat"
+    roll = {"left": left, "right": right, "top": top, "bottom": bottom}
+    x_curled, y_curled = curled_pairs(roll, roll_threshold)
+    curl = curl_type(roll, edges_touch, roll_threshold)
     as_paper = (not x_curled or left + right < 0) and (not y_curled or top + bottom > 0)
 
     height = _height(C, e_z)
     loop_w, loop_c = _loop_spacing(C)
     return CurlShape(
         curl=curl, edges_touch=edges_touch, edge_gap=edge_gap,
-        roll_deg={"left": left, "right": right, "top": top, "bottom": bottom},
+        roll_deg=roll,
         curvature_x=curvature_x, curvature_y=curvature_y, height=height,
         height_over_width=height / (n_wale * w), loop_w=loop_w, loop_c=loop_c,
         loop_aspect=loop_w / loop_c, knitted_aspect=w / c, directions_as_paper=bool(as_paper),
