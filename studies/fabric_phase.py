@@ -12,6 +12,7 @@ progress bar over points.
     python studies/fabric_phase.py --out DIR --resume              # after an interruption
     python studies/fabric_phase.py --out DIR --scheduler tcp://host:8786
     python studies/fabric_phase.py --model beam --nw 5 --nc 5 --out DIR
+    python studies/fabric_phase.py --model beam --resume --adopt RUN/curl_10x35.json --out DIR
 
 Models: ``bspline`` (default; the paper's B-spline yarns, FIRE within
 ``--max-time`` seconds per point and optionally ``--max-steps``: a point out
@@ -34,7 +35,8 @@ from knitfem.io import write_json
 from knitfem.io.run import RunFolder
 from knitfem.options import Check, Integer, OptionSet, Real, refuse
 from knitfem.scenes import curl_command
-from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS, MODELS, phase_sweep
+from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS, MODELS, adopt_run, \
+    phase_sweep
 from knitfem.scenes.phase_output import plot_phase_diagram, plot_phase_trends, point_state, \
     write_phase_csv
 from knitfem.sweep import add_sweep_options, parse_study, sweep_main
@@ -102,7 +104,15 @@ def parse(argv):
                              "(default, coarse, fine; as knitfem curl --paths)")
     parser.add_argument("--bindoff-prestretch", action="store_true", default=None,
                         help="beam: the bind-off's rest length shrinks with the knit's")
-    return parse_study("fabric_phase", parser, OPTIONS, argv)
+    parser.add_argument("--adopt", nargs="+", default=None, metavar="RUN.json",
+                        help="beam, with --resume: store these finished `knitfem curl` runs "
+                             "(summary JSON, .vtu beside it) as their grid points first, "
+                             "each checked to have the sweep's scene")
+    args = parse_study("fabric_phase", parser, OPTIONS, argv)
+    if args.adopt and not (args.resume and args.model == "beam"):
+        parser.exit(2, "fabric_phase: error: --adopt needs --model beam and --resume (without "
+                       "--resume the folder's points are removed)\n")
+    return args
 
 
 def curl_options(args):
@@ -139,6 +149,9 @@ def run(args):
     if not args.quiet:
         print(projection(args), file=sys.stderr)
     with run:
+        for summary in args.adopt or ():
+            record = adopt_run(args.out, summary, nw_values=args.nw, nc_values=args.nc)
+            print(f"adopted {summary} as {record['key']}", file=sys.stderr)
         t = time.perf_counter()
         rows, sweep = phase_sweep(args.nw, args.nc, args.out, model=args.model,
                                   options=options, resume=args.resume, workers=args.workers,

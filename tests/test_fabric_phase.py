@@ -257,6 +257,8 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     (["--model", "beam", "--paths", "default,slow"], "--paths must list distinct schedules"),
     (["--paths", "default"], "--paths applies to --model beam only"),
     (["--bindoff-prestretch"], "--bindoff-prestretch applies to --model beam only"),
+    (["--model", "beam", "--adopt", "run.json"], "--adopt needs --model beam and --resume"),
+    (["--resume", "--adopt", "run.json"], "--adopt needs --model beam and --resume"),
 ])
 def test_bad_options_are_one_line_naming_the_option_exit_2(tmp_path, capsys, args, message):
     with pytest.raises(SystemExit) as stop:

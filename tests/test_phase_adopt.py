@@ -1,0 +1,97 @@
+"""A finished ``knitfem curl`` run adopted as a point of the beam phase sweep:
+reused by --resume instead of relaxed again, and refused (naming what
+differs) when its scene, its grid point or its outcome is not the sweep's."""
+from dataclasses import asdict
+import json
+
+import pytest
+
+from knitfem.scenes import curl as beam_curl
+from knitfem.scenes.curl_sweep import adopt_run, curl_point, phase_sweep
+from knitfem.scenes.fabric import FabricScene
+from knitfem.sweep.engine import task_name
+from knitfem.sweep.store import SweepStore, point_key
+
+OPTIONS = {"alpha": 0.2, "friction": 0.3, "elements_per_loop": 32}
+ROLLS = {"left": -190.0, "right": -170.0, "top": 110.0, "bottom": 130.0}
+
+
+def sweep_folder(out, options=OPTIONS, points=({"nw": 5, "nc": 20},)):
+    """A started beam sweep (its manifest) with no point finished."""
+    store = SweepStore(out)
+    store.open(task_name(curl_point), {"model": "beam", "curl": dict(options)}, list(points),
+               [point_key(p) for p in points], resume=False)
+    store.finish(complete=False)
+    return out
+
+
+def finished_run(folder, nw=5, nc=20, **changes):
+    """A run's summary JSON and .vtu as ``knitfem curl --out`` leaves them."""
+    folder.mkdir(parents=True, exist_ok=True)
+    summary = {"nw": nw, "nc": nc, "model": "beam", "alpha": 0.2, "curl": "double",
+               "roll_deg": ROLLS, "edges_touch": False, "converged": True, "stable": True,
+               "residual": 5e-9, "relax_s": 1234.5, "error": None,
+               "scene": asdict(FabricScene(nw, nc, **OPTIONS))}
+    for key, value in changes.items():
+        if key in summary["scene"]:
+            summary["scene"][key] = value
+        else:
+            summary[key] = value
+    path = folder / f"curl_{nw}x{nc}.json"
+    path.write_text(json.dumps(summary))
+    path.with_suffix(".vtu").write_bytes(b"<VTKFile/>")
+    return path
+
+
+def test_adopted_run_is_reused_not_relaxed_again(tmp_path, monkeypatch):
+    out = sweep_folder(tmp_path / "sweep")
+    record = adopt_run(out, finished_run(tmp_path / "run"))
+    assert record["key"] == "nw=5_nc=20" and record["status"] == "done"
+    assert record["elapsed_s"] == 1234.5 and record["worker"].startswith("adopted from")
+    assert (out / "points" / "nw=5_nc=20" / "curl.vtu").read_bytes() == b"<VTKFile/>"
+
+    def relaxes(scene, **kw):
+        raise AssertionError("the adopted point was relaxed again")
+
+    monkeypatch.setattr(beam_curl, "curl", relaxes)
+    rows, sweep = phase_sweep([5], [20], out, model="beam", options=OPTIONS, resume=True,
+                              workers=0, progress=False)
+    assert sweep.reused == 1 and sweep.complete
+    row = rows[0]
+    assert row["curl"] == "double" and row["converged"] is True
+    assert [row[f"roll_{e}"] for e in ROLLS] == list(ROLLS.values())
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"friction": 0.05}, "friction: run 0.05, sweep 0.3"),
+    ({"elements_per_loop": 24}, "elements_per_loop: run 24, sweep 32"),
+    ({"error": "relaxation failed near lam = 0.4"}, "not a relaxed swatch"),
+    ({"curl": None}, "not a relaxed swatch"),
+    ({"model": "bspline"}, "only beam runs"),
+])
+def test_a_run_that_is_not_the_sweeps_point_is_refused(tmp_path, changes, words):
+    out = sweep_folder(tmp_path / "sweep")
+    with pytest.raises(ValueError, match=words):
+        adopt_run(out, finished_run(tmp_path / "run", **changes))
+    assert not list((out / "points").glob("*.json"))
+
+
+def test_a_run_older_than_a_scene_field_is_read_with_the_fields_old_behaviour(tmp_path):
+    """tail_ties and bindoff_prestretch came after the first runs, each added
+    with the earlier behaviour as its default: a run without them is that."""
+    path = finished_run(tmp_path / "run")
+    summary = json.loads(path.read_text())
+    del summary["scene"]["tail_ties"], summary["scene"]["bindoff_prestretch"]
+    path.write_text(json.dumps(summary))
+    assert adopt_run(sweep_folder(tmp_path / "a"), path)["status"] == "done"
+    with pytest.raises(ValueError, match="tail_ties: run 1, sweep 2"):
+        adopt_run(sweep_folder(tmp_path / "b", options={**OPTIONS, "tail_ties": 2}), path)
+
+
+def test_off_grid_runs_and_folders_without_a_sweep_are_refused(tmp_path):
+    run = finished_run(tmp_path / "run", nw=10, nc=35)
+    with pytest.raises(ValueError, match="no phase sweep"):
+        adopt_run(tmp_path / "empty", run)
+    out = sweep_folder(tmp_path / "sweep")
+    with pytest.raises(ValueError, match="10 x 35 is not on the grid"):
+        adopt_run(out, run, nw_values=[5], nc_values=[20])
