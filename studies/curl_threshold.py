@@ -22,7 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from knitfem.analysis.curl import ROLL_THRESHOLD  # noqa: E402
-from knitfem.analysis.margin import EDGES, curl_type_intervals  # noqa: E402
+from knitfem.analysis.margin import EDGES, curl_type, curl_type_intervals  # noqa: E402
 
 PAPER = {(10, 35): "side", (25, 35): "double", (55, 35): "top_bottom"}   # Fig. 5c
 COLOURS = {"side": "tab:orange", "double": "tab:purple", "top_bottom": "tab:blue",
@@ -35,7 +35,11 @@ def _float(v):
 
 
 def from_summary(path):
+    """A swatch of a summary JSON, or None (with a line) for a run with no shape."""
     s = json.loads(Path(path).read_text())
+    if s.get("curl") is None or not s.get("roll_deg"):
+        print(f"{path}: no relaxed shape ({s.get('error')}), left out")
+        return None
     scene = s.get("scene") or {}
     label = f"{s['nw']} × {s['nc']}, α {s['alpha']:g}, {s.get('model', 'beam')}"
     if scene.get("friction") is not None:
@@ -72,7 +76,8 @@ def from_phase(path):
 
 
 def ranges(intervals, kind):
-    got = [f"{lo:.0f}–{hi:.0f}" for lo, hi, k in intervals if k == kind]
+    # intervals narrower than the table's rounding (rolls of round-off size) left out
+    got = [f"{lo:.0f}–{hi:.0f}" for lo, hi, k in intervals if k == kind and hi - lo >= 0.5]
     return ", ".join(got) if got else "–"
 
 
@@ -80,7 +85,8 @@ def table(runs):
     lines = [f"Thresholds (deg) over (0, {UPPER:.0f}] at which each swatch reads as each type "
              f"(the classification's default: {ROLL_THRESHOLD:g}). `local` uses the local "
              "rolls (the edge's turn beyond the interior's even bend).", "",
-             "| swatch | converged | rolls L / R / T / B | edges touch | type at 30° | side | "
+             f"| swatch | converged | rolls L / R / T / B | edges touch | type at "
+             f"{ROLL_THRESHOLD:g}° | side | "
              "double | top/bottom | paper (Fig. 5c) | local: side |", "|---|---|---|---|---|"
              "---|---|---|---|---|"]
     for run in runs:
@@ -89,7 +95,8 @@ def table(runs):
         local = (ranges(curl_type_intervals(run["local"], run["touch"], UPPER), "side")
                  if run["local"] else "n/a")
         lines.append(f"| {run['label']} | {run['converged']} | {rolls} | {run['touch']} | "
-                     f"{run['curl']} | {ranges(iv, 'side')} | {ranges(iv, 'double')} | "
+                     f"{curl_type(run['roll'], run['touch'], ROLL_THRESHOLD)} | "
+                     f"{ranges(iv, 'side')} | {ranges(iv, 'double')} | "
                      f"{ranges(iv, 'top_bottom')} | {PAPER.get((run['nw'], run['nc']), '')} | "
                      f"{local} |")
     return "\n".join(lines) + "\n"
@@ -129,7 +136,8 @@ def main():
     parser.add_argument("--phase", nargs="*", default=[], help="phase.csv files")
     parser.add_argument("--out", required=True, type=Path)
     args = parser.parse_args()
-    runs = [from_summary(p) for p in args.runs] + [r for p in args.phase for r in from_phase(p)]
+    runs = [r for r in map(from_summary, args.runs) if r is not None] + \
+        [r for p in args.phase for r in from_phase(p)]
     if not runs:
         parser.exit(2, "curl_threshold: give --runs or --phase with at least one swatch\n")
     runs.sort(key=lambda r: (r["nw"] / r["nc"], r["nw"], r["label"]))

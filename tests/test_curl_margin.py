@@ -51,17 +51,36 @@ def test_agrees_with_the_classification_of_synthetic_sheets(bends):
     pts = deform(swatch, **bends)
     shape = swatch_curl(pts, swatch)
     intervals = curl_type_intervals(shape.roll_deg, shape.edges_touch)
-    for threshold in (5.0, 30.0, 60.0, 90.0, 150.0):
+    # on a roll: curled (>=); curl_shape takes thresholds in (0, 180)
+    exact = [abs(v) for v in shape.roll_deg.values() if 1e-6 < abs(v) < 180.0]
+    assert exact
+    for threshold in (5.0, 30.0, 60.0, 90.0, 100.0, 150.0, *exact):
         expect = swatch_curl(pts, swatch, roll_threshold=threshold).curl
         got = [k for lo, hi, k in intervals if lo < threshold <= hi]
         assert got == [expect], threshold
 
 
 @pytest.mark.parametrize("roll, upper, name", [
-    ({"left": 1.0, "right": 1.0, "top": 1.0}, 360.0, "bottom"),
-    ({"left": float("nan"), "right": 1.0, "top": 1.0, "bottom": 1.0}, 360.0, "finite"),
+    ({"left": 1.0, "right": 1.0, "top": 1.0}, 360.0, "roll_deg must give a number"),
+    ({"left": None, "right": 1.0, "top": 1.0, "bottom": 1.0}, 360.0, "roll_deg must give"),
+    ({"left": float("nan"), "right": 1.0, "top": 1.0, "bottom": 1.0}, 360.0,
+     "roll_deg must be finite"),
     ({"left": 1.0, "right": 1.0, "top": 1.0, "bottom": 1.0}, -5.0, "upper"),
 ])
 def test_bad_input_names_the_parameter(roll, upper, name):
     with pytest.raises(ValueError, match=name):
         curl_type_intervals(roll, False, upper)
+
+
+def test_a_nan_roll_is_refused_whichever_edge_holds_it():
+    """max() with a NaN depends on the order: refused, not a type either way."""
+    for roll in ({"left": float("nan"), "right": 50.0, "top": 0.0, "bottom": 0.0},
+                 {"left": 50.0, "right": float("nan"), "top": 0.0, "bottom": 0.0}):
+        with pytest.raises(ValueError, match="roll_deg must be finite"):
+            curl_type(roll, False, 30.0)
+
+
+def test_an_unknown_type_is_refused():
+    with pytest.raises(ValueError, match="kind must be one of"):
+        threshold_range({"left": 1.0, "right": 1.0, "top": 1.0, "bottom": 1.0}, False,
+                        "top/bottom")

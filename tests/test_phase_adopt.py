@@ -1,8 +1,10 @@
 """A finished ``knitfem curl`` run adopted as a point of the beam phase sweep:
 reused by --resume instead of relaxed again, and refused (naming what
-differs) when its scene, its grid point or its outcome is not the sweep's."""
+differs) when its scene, relaxation, grid point or outcome is not the
+sweep's, when the point is done already, or while a sweep runs there."""
 from dataclasses import asdict
 import json
+import subprocess
 
 import pytest
 
@@ -33,7 +35,7 @@ def finished_run(folder, nw=5, nc=20, **changes):
                "residual": 5e-9, "relax_s": 1234.5, "error": None,
                "scene": asdict(FabricScene(nw, nc, **OPTIONS))}
     for key, value in changes.items():
-        if key in summary["scene"]:
+        if key in summary["scene"] or key == "new_knob":
             summary["scene"][key] = value
         else:
             summary[key] = value
@@ -68,6 +70,8 @@ def test_adopted_run_is_reused_not_relaxed_again(tmp_path, monkeypatch):
     ({"error": "relaxation failed near lam = 0.4"}, "not a relaxed swatch"),
     ({"curl": None}, "not a relaxed swatch"),
     ({"model": "bspline"}, "only beam runs"),
+    ({"protocol": {"dlam": 0.3, "dlam_max": 0.5}}, "protocol options"),
+    ({"new_knob": 7}, "new_knob.*not FabricScene fields"),
 ])
 def test_a_run_that_is_not_the_sweeps_point_is_refused(tmp_path, changes, words):
     out = sweep_folder(tmp_path / "sweep")
@@ -95,3 +99,29 @@ def test_off_grid_runs_and_folders_without_a_sweep_are_refused(tmp_path):
     out = sweep_folder(tmp_path / "sweep")
     with pytest.raises(ValueError, match="10 x 35 is not on the grid"):
         adopt_run(out, run, nw_values=[5], nc_values=[20])
+
+
+def test_a_done_point_is_not_overwritten_unless_asked(tmp_path):
+    out = sweep_folder(tmp_path / "sweep")
+    run = finished_run(tmp_path / "run")
+    adopt_run(out, run)
+    with pytest.raises(ValueError, match="nw=5_nc=20 is done already"):
+        adopt_run(out, run)
+    assert adopt_run(out, run, replace=True)["status"] == "done"
+
+
+def test_adopting_into_a_running_sweep_is_refused(tmp_path):
+    """The manifest names the sweep's process: while it lives, it would relax
+    the point again and overwrite the adopted record."""
+    out = sweep_folder(tmp_path / "sweep")
+    manifest = json.loads((out / "sweep.json").read_text())
+    run = finished_run(tmp_path / "run")
+    other = subprocess.Popen(["sleep", "60"])
+    try:
+        (out / "sweep.json").write_text(json.dumps(dict(manifest, pid=other.pid)))
+        with pytest.raises(ValueError, match=f"process {other.pid}.* is running"):
+            adopt_run(out, run)
+    finally:
+        other.kill()
+        other.wait()
+    assert adopt_run(out, run)["status"] == "done"          # killed: adopted

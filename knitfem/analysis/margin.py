@@ -14,11 +14,27 @@ import math
 EDGES = ("left", "right", "top", "bottom")
 
 
+TYPES = ("side", "double", "top_bottom", "flat")
+
+
+def edge_rolls(roll_deg):
+    """The four rolls as finite floats; ValueError naming roll_deg otherwise."""
+    try:
+        rolls = {e: float(roll_deg[e]) for e in EDGES}
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"roll_deg must give a number for each of {', '.join(EDGES)}, "
+                         f"got {roll_deg!r}") from None
+    if not all(math.isfinite(v) for v in rolls.values()):
+        raise ValueError(f"roll_deg must be finite, got {rolls}")
+    return rolls
+
+
 def curled_pairs(roll_deg, roll_threshold):
     """(side pair curled, top/bottom pair curled): the larger magnitude of each
     pair's rolls (deg) reaches ``roll_threshold`` (deg)."""
-    return (max(abs(roll_deg["left"]), abs(roll_deg["right"])) >= roll_threshold,
-            max(abs(roll_deg["top"]), abs(roll_deg["bottom"])) >= roll_threshold)
+    r = edge_rolls(roll_deg)
+    return (max(abs(r["left"]), abs(r["right"])) >= roll_threshold,
+            max(abs(r["top"]), abs(r["bottom"])) >= roll_threshold)
 
 
 def curl_type(roll_deg, edges_touch, roll_threshold):
@@ -36,12 +52,7 @@ def curl_type_intervals(roll_deg, edges_touch, upper=360.0):
     ``(low, high, type)``: the type holds for low < threshold <= high (the
     type changes only where the threshold passes an edge pair's larger roll).
     Raises ValueError for missing or non-finite rolls or a bad ``upper``."""
-    missing = [e for e in EDGES if e not in roll_deg]
-    if missing:
-        raise ValueError(f"roll_deg lacks {', '.join(missing)}; it needs {', '.join(EDGES)}")
-    rolls = {e: float(roll_deg[e]) for e in EDGES}
-    if not all(math.isfinite(v) for v in rolls.values()):
-        raise ValueError(f"roll_deg must be finite, got {rolls}")
+    rolls = edge_rolls(roll_deg)
     if not (math.isfinite(upper) and upper > 0):
         raise ValueError(f"upper must be a positive number of degrees, got {upper!r}")
     x = max(abs(rolls["left"]), abs(rolls["right"]))
@@ -60,5 +71,7 @@ def curl_type_intervals(roll_deg, edges_touch, upper=360.0):
 def threshold_range(roll_deg, edges_touch, kind, upper=360.0):
     """The thresholds (deg) at which the rolls read as ``kind``: a list of
     ``(low, high)`` (empty when no threshold in (0, upper] gives it)."""
+    if kind not in TYPES:
+        raise ValueError(f"kind must be one of {TYPES}, got {kind!r}")
     return [(lo, hi) for lo, hi, k in curl_type_intervals(roll_deg, edges_touch, upper)
             if k == kind]

@@ -17,7 +17,7 @@ atomically) from which ``resume`` continues after a kill.
 import json
 import os
 import time
-from dataclasses import MISSING, fields
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -60,13 +60,7 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
 
 def checkpoint_scene(data):
     """The :class:`FabricScene` a checkpoint (its loaded npz) was written for."""
-    # a checkpoint written before a scene field existed ran with its default
-    defaults = {f.name: f.default for f in fields(FabricScene) if f.default is not MISSING}
-    # ... except where the default changed since: friction planes fixed at the
-    # round's start until the co-rotated friction became the default (the
-    # elements per loop have always been stored)
-    defaults["corotated_friction"] = False
-    return FabricScene(**{**defaults, **json.loads(str(data["scene"]))})
+    return FabricScene.stored(json.loads(str(data["scene"])))
 
 
 def load_checkpoint(path, scene, model, protocol=None):

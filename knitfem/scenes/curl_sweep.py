@@ -45,13 +45,6 @@ KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "local_roll_deg", "hei
         "curl_types", "path_dependent", "chosen_path")
 
 
-# FabricScene fields added after runs were stored, with the value that gives
-# the behaviour before them (each added with that value as its default, the
-# code unchanged: tail_ties a238721, bindoff_prestretch 39297ac); a stored
-# run without the field is read with it
-SCENE_FIELDS_ADDED = {"tail_ties": 1, "bindoff_prestretch": False}
-
-
 class CurlFailed(RuntimeError):
     """A relaxation that produced no equilibrium to classify (message only:
     picklable, so it crosses process and cluster boundaries)."""
@@ -133,38 +126,38 @@ def point_result(nw, nc, model, summary):
     return result
 
 
-def adopt_run(out, summary_path, nw_values=None, nc_values=None):
+def adopt_run(out, summary_path, nw_values=None, nc_values=None, replace=False):
     """Store a finished ``knitfem curl`` beam run (its summary JSON, the .vtu
     beside it) as the point (nw, nc) of the beam phase sweep in ``out``, so
     that ``--resume`` reuses it instead of relaxing the swatch again.
 
     Refused (ValueError naming what differs) unless ``out`` holds a sweep of
-    :func:`curl_point` (its ``sweep.json``), the run relaxed to a classified
-    equilibrium, the run's scene equals the sweep's scene field by field
-    (:class:`~knitfem.scenes.fabric.FabricScene` with the sweep's constants;
-    a field the run predates read as :data:`SCENE_FIELDS_ADDED` says) and, when ``nw_values`` / ``nc_values`` are given, (nw, nc) is on that grid.
-    Returns the stored record; its ``worker`` names the adopted file."""
+    :func:`curl_point` (its ``sweep.json``) that is not running, the run
+    relaxed to a classified equilibrium with the default relaxation (no
+    ``protocol`` options: the sweep's points use none), its scene equals the
+    sweep's field by field (:meth:`FabricScene.stored`: a field the run
+    predates as it behaved then), (nw, nc) is on the grid when ``nw_values``
+    / ``nc_values`` are given, and the point is not done already (unless
+    ``replace``).  Returns the stored record; its ``worker`` names the file."""
     import json
-    from dataclasses import asdict
     from ..io.atomic import finite_or_none
-    from ..sweep.engine import task_name
     from ..sweep.store import SweepStore, point_key
     from .fabric import FabricScene
     path = Path(summary_path)
     store = SweepStore(out)
-    manifest = store.manifest()
-    if manifest is None or manifest.get("task") != task_name(curl_point):
-        raise ValueError(f"adopt: {out} holds no phase sweep (no sweep.json of "
-                         f"{task_name(curl_point)}); start the sweep there first")
-    constants = manifest["constants"]
+    manifest = _sweep_manifest(store, out)
     summary = json.loads(path.read_text())
     vtu = path.with_suffix(".vtu")
+    constants = manifest["constants"]
     if constants.get("model") != "beam" or summary.get("model", "beam") != "beam":
         raise ValueError(f"adopt {path}: only beam runs into a beam sweep (sweep model "
                          f"{constants.get('model')!r}, run model {summary.get('model')!r})")
     if summary.get("error") is not None or summary.get("curl") is None or not vtu.is_file():
         raise ValueError(f"adopt {path}: not a relaxed swatch with its .vtu "
                          f"(error {summary.get('error')!r}, curl {summary.get('curl')!r})")
+    if summary.get("protocol"):
+        raise ValueError(f"adopt {path}: relaxed with protocol options {summary['protocol']} "
+                         "(--paths / --reanchor); the sweep's points use the default")
     options = dict(constants.get("curl", {}))
     if options.pop("paths", None) is not None:
         raise ValueError(f"adopt {path}: the sweep relaxes each point along several paths; "
@@ -174,18 +167,55 @@ def adopt_run(out, summary_path, nw_values=None, nc_values=None):
             (nc_values is not None and nc not in nc_values):
         raise ValueError(f"adopt {path}: {nw} x {nc} is not on the grid (nw {nw_values}, "
                          f"nc {nc_values})")
-    expected = asdict(FabricScene(nw, nc, **options))
-    ran = {**SCENE_FIELDS_ADDED, **(summary.get("scene") or {})}
-    differ = [f"{k}: run {ran.get(k)!r}, sweep {v!r}" for k, v in expected.items()
-              if json.dumps(ran.get(k)) != json.dumps(v)]
+    try:
+        ran = FabricScene.stored(summary.get("scene") or {}).as_dict()
+    except ValueError as err:
+        raise ValueError(f"adopt {path}: {err}") from None
+    expected = FabricScene(nw, nc, **options).as_dict()
+    differ = [f"{k}: run {ran[k]!r}, sweep {v!r}" for k, v in expected.items()
+              if not _same_value(ran[k], v)]
     if differ:
         raise ValueError(f"adopt {path}: the run's scene is not the sweep's ({'; '.join(differ)})")
     params = {"nw": nw, "nc": nc}
-    record = {"key": point_key(params), "params": params, "status": "done",
+    key = point_key(params)
+    old = store.load(key)
+    if old and old.get("status") == "done" and not replace:
+        raise ValueError(f"adopt {path}: {key} is done already in {out} ({old.get('worker')}); "
+                         "pass replace=True to overwrite it")
+    record = {"key": key, "params": params, "status": "done",
               "result": finite_or_none(point_result(nw, nc, "beam", dict(summary, message=""))),
               "error": None, "elapsed_s": summary.get("relax_s", summary.get("elapsed_s")),
               "worker": f"adopted from {path}"}
     return store.save(record, {"curl.json": path.read_bytes(), "curl.vtu": vtu.read_bytes()})
+
+
+def _sweep_manifest(store, out):
+    """The manifest of the phase sweep in ``out``; ValueError when there is
+    none or a sweep is running there (its process alive on this machine)."""
+    import os
+    import socket
+    from ..sweep.engine import task_name
+    manifest = store.manifest()
+    if manifest is None or manifest.get("task") != task_name(curl_point):
+        raise ValueError(f"adopt: {out} holds no phase sweep (no sweep.json of "
+                         f"{task_name(curl_point)}); start the sweep there first")
+    pid = manifest.get("pid")
+    if manifest.get("complete") is False and pid not in (None, os.getpid()) \
+            and manifest.get("host") == socket.gethostname():
+        try:
+            os.kill(pid, 0)
+        except OSError:
+            return manifest                        # a sweep killed before it finished
+        raise ValueError(f"adopt: a sweep (process {pid}) is running in {out}: it would "
+                         "relax the point again and overwrite it; stop it first")
+    return manifest
+
+
+def _same_value(a, b):
+    """Equal scene values: numbers by value (4 == 4.0), booleans only to booleans."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return type(a) is type(b) and a == b
+    return a == b
 
 
 def _row(params, record):

@@ -52,7 +52,7 @@ building it; see README "Fabric curling"):
 * **Rigid motion**: one node held (statically determinate: its reactions
   vanish at equilibrium and are reported).
 """
-from dataclasses import asdict, dataclass, replace
+from dataclasses import MISSING, asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -106,6 +106,27 @@ class FabricScene:
 
     def as_dict(self):
         return asdict(self)
+
+    @classmethod
+    def stored(cls, record):
+        """The scene a stored record (a checkpoint's or summary's ``scene``
+        dict) was run with.  A field the record predates ran with its default
+        -- the behaviour before the field existed -- except where the default
+        changed since (:data:`DEFAULTS_BEFORE`).  ValueError names a field
+        the record has and this scene does not."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(record) - known)
+        if unknown:
+            raise ValueError(f"scene fields {unknown} are not FabricScene fields "
+                             f"(a record from other code?)")
+        defaults = {f.name: f.default for f in fields(cls) if f.default is not MISSING}
+        return cls(**{**defaults, **DEFAULTS_BEFORE, **record})
+
+
+# defaults that changed after records were stored, as they were: friction
+# planes fixed at a round's start until the co-rotated friction became the
+# default (the elements per loop have always been stored)
+DEFAULTS_BEFORE = {"corotated_friction": False}
 
 
 def yarn_section(scene, factor=1.0):

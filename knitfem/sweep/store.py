@@ -17,9 +17,11 @@ the grid.
 """
 import hashlib
 import json
+import os
 from pathlib import Path
 import re
 import shutil
+import socket
 
 from ..io.atomic import OutputError, check_folder_writable, write_bytes, write_json
 
@@ -86,8 +88,10 @@ class SweepStore:
         elif self.points_dir.exists():
             shutil.rmtree(self.points_dir)
         self.points_dir.mkdir(parents=True, exist_ok=True)
+        # who writes here: adopting a run into a folder a live sweep writes is refused
         self.header = {"task": task, "constants": constants, "axes": list(points[0]) if points
-                       else [], "points": [{"key": k, "params": p} for k, p in zip(keys, points)]}
+                       else [], "points": [{"key": k, "params": p} for k, p in zip(keys, points)],
+                       "pid": os.getpid(), "host": socket.gethostname()}
         write_json(self.out / MANIFEST, {**self.header, "complete": False})
         return done
 
