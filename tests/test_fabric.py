@@ -444,6 +444,46 @@ def test_rounds_ended_for_new_contacts_do_not_count_as_rounds(monkeypatch):
     assert result is None and calls == [None] and "in 1 rounds" in reason
 
 
+def test_a_resume_may_raise_the_round_budget_and_records_it(monkeypatch, tmp_path):
+    """A snap needs more rounds than the default budget, and halving its
+    increment never ends: a resume may change ``max_rounds`` (only it), the
+    change is recorded with the lam it was made at and kept by later resumes,
+    and the partial increment goes on past its old budget."""
+    from knitfem.scenes import curl as curl_module
+    scene = FabricScene(3, 3, elements_per_loop=16)
+    model, _, _ = build(scene)
+    state = model.initial_state()
+    partial = fabric_relax.Partial(0.8, state, 4, 800, np.inf, 0.0, ends=(1e-2,) * 4,
+                                   moves=(4.0,) * 4)
+    path = tmp_path / "checkpoint.npz"
+    curl_module._save_checkpoint(path, scene, state, 0.78, 0.02, [], None, partial)
+    given = {"max_rounds": 12}
+    loaded = curl_module.load_checkpoint(path, scene, model, given)
+    kept = curl_module.checkpoint_protocol(np.load(path))
+    record = curl_module.resumed_protocol(kept, given, loaded[1])
+    assert record == {"max_rounds": 12, "budget_changes": [
+        {"lam": 0.78, "option": "max_rounds", "from": None, "to": 12}]}
+    # the next checkpoint holds the record; a resume with the same budget adds nothing
+    curl_module._save_checkpoint(path, scene, state, 0.79, 0.02, [], None, protocol=record)
+    curl_module.load_checkpoint(path, scene, model, given)
+    again = curl_module.resumed_protocol(curl_module.checkpoint_protocol(np.load(path)),
+                                         given, 0.79)
+    assert again == record
+    # a path option still refuses, with or without the budget
+    for other in ({"reanchor": 0.2}, {"max_rounds": 12, "reanchor": 0.2}):
+        with pytest.raises(ValueError, match="another relaxation protocol"):
+            curl_module.load_checkpoint(path, scene, model, other)
+    # the partial's fifth round runs under the raised budget (it would have failed at 4)
+    calls = []
+    _rounds_ending_early(monkeypatch, [1e-2, 1e-4], calls)
+    result, inc = fabric_relax._increment(model, state, 0.8, 1e-3, 5, 12, np.inf, start=partial)
+    assert result is not None and len(calls) == 2 and inc.iterations == 802
+    calls.clear()
+    _rounds_ending_early(monkeypatch, [1e-4], calls)
+    failed = fabric_relax._increment(model, state, 0.8, 1e-3, 5, 4, np.inf, start=partial)
+    assert failed[0] is None and calls == []
+
+
 def test_a_resume_keeps_the_early_rounds_budget_and_refuses_another_protocol(monkeypatch,
                                                                             tmp_path):
     """The steps already spent in rounds ended early survive a checkpoint, so a

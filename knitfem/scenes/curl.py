@@ -63,6 +63,38 @@ def checkpoint_scene(data):
     return FabricScene.stored(json.loads(str(data["scene"])))
 
 
+# relaxation options a resume may change: budgets, which decide only what an
+# increment that has used up the old one does next (the change is recorded)
+BUDGETS = ("max_rounds",)
+
+
+def _path_protocol(protocol):
+    return {k: v for k, v in (protocol or {}).items()
+            if k not in BUDGETS and k != "budget_changes"}
+
+
+def checkpoint_protocol(data):
+    """The relaxation protocol a checkpoint (its loaded npz) was written with,
+    its budget changes (``budget_changes``) included; {} for the defaults."""
+    return json.loads(str(data["protocol"])) if "protocol" in data.files else {}
+
+
+def resumed_protocol(kept, given, lam):
+    """The protocol a resumed run records: ``given``, with every change of a
+    budget against the checkpoint's ``kept`` protocol listed under
+    ``budget_changes`` (the homotopy lam of the resume, the option, old and
+    new value; None = relax_fabric's default), those made before included."""
+    changes = list((kept or {}).get("budget_changes", []))
+    for key in BUDGETS:
+        old, new = (kept or {}).get(key), (given or {}).get(key)
+        if old != new:
+            changes.append({"lam": lam, "option": key, "from": old, "to": new})
+    record = dict(_path_protocol(given), **{k: given[k] for k in BUDGETS if k in (given or {})})
+    if changes:
+        record["budget_changes"] = changes
+    return record
+
+
 def load_checkpoint(path, scene, model, protocol=None):
     """(state, lam, dlam, increments, partial) from a checkpoint of the same
     scene and relaxation ``protocol`` (options; a checkpoint from before they
@@ -80,9 +112,11 @@ def load_checkpoint(path, scene, model, protocol=None):
                            for k in sorted(saved) if saved[k] != given[k])
         raise ValueError(f"--resume: {path} holds a run with other parameters ({differ}); "
                          "remove it or give the same options")
-    # the protocol decides the path, and with it the answer (README, --reanchor)
-    kept = json.loads(str(data["protocol"])) if "protocol" in data.files else {}
-    if json.dumps(kept, sort_keys=True) != json.dumps(protocol or {}, sort_keys=True):
+    # the protocol decides the path, and with it the answer (README, --reanchor);
+    # a round budget may change (recorded: resumed_protocol)
+    kept = _path_protocol(checkpoint_protocol(data))
+    if json.dumps(kept, sort_keys=True) != json.dumps(_path_protocol(protocol),
+                                                      sort_keys=True):
         raise ValueError(f"--resume: {path} holds a run with another relaxation protocol "
                          f"(checkpoint {kept}, given {protocol or {}}); remove it or give the "
                          "same options")
@@ -137,6 +171,9 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         (out / "path").mkdir(parents=True, exist_ok=True)
         if resume:
             start = load_checkpoint(checkpoint_path, scene, model, relax_options)
+            if start is not None:
+                relax_options = resumed_protocol(
+                    checkpoint_protocol(np.load(checkpoint_path)), relax_options, start[1])
         elif checkpoint_path.exists():
             checkpoint_path.unlink()
     bar = None
@@ -172,7 +209,8 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     try:
         # a resumed run goes on with the checkpoint's step, not the options' first one
         eq = relax_fabric(model, homotopy, progress=on_step, checkpoint=on_increment,
-                          **{**(relax_options or {}), **kwargs})
+                          **{**{k: v for k, v in (relax_options or {}).items()
+                                if k != "budget_changes"}, **kwargs})
     except FabricRelaxationError as err:
         failure = err
     finally:

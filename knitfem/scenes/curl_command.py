@@ -5,7 +5,7 @@
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
                  [--bindoff-prestretch] [--tail-ties 1] [--paths default,coarse]
-                 [--reanchor SHARE] [--out DIR]
+                 [--reanchor SHARE] [--max-rounds 4] [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model: ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
@@ -129,6 +129,12 @@ OPTIONS = OptionSet(
          "the contacts formed in it, once the segments that came into contact exceed this "
          "share of those touching at the round's start (and 4; default: rounds run "
          "whole; README: 'Re-anchoring as contacts form')", metavar="SHARE"),
+    Integer("--max-rounds", None, "[1, 50]", when=("model", "beam", "the bspline "
+            "relaxation has no friction rounds"), help="beam: friction rounds an increment "
+            "may take before it is halved (default 4; twice that at lam = 1). A resume may "
+            "change it (recorded under the summary's protocol, budget_changes): past a snap "
+            "the swatch needs more rounds than 4, and halving the increment never ends "
+            "(README: 'A snap near lam 0.8')"),
     Check(_yarn_fits),
     RESUME,
     Check(_beam_only_flags),
@@ -198,7 +204,11 @@ def run(args):
                                 tail_ties=args.tail_ties,
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
-            protocol = {"reanchor": args.reanchor} if args.reanchor is not None else None
+            protocol = {"reanchor": args.reanchor} if args.reanchor is not None else {}
+            from .fabric_relax import MAX_ROUNDS
+            if args.max_rounds is not None and args.max_rounds != MAX_ROUNDS:
+                protocol["max_rounds"] = args.max_rounds
+            protocol = protocol or None
             if args.paths is not None:
                 from .curl_paths import curl_paths, parse_paths
                 summary = curl_paths(scene, parse_paths(args.paths), out=args.out,

@@ -48,6 +48,8 @@ from ..solve.stability import inertia, lowest_scaled_eigenvalue
 
 # the homotopy's first increment and the largest it grows to (relax_fabric's defaults)
 DLAM, DLAM_MAX = 0.1, 0.25
+# friction rounds an increment may take before it is halved (twice that at lam = 1)
+MAX_ROUNDS = 4
 
 
 class FabricRelaxationError(RuntimeError):
@@ -280,7 +282,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
 
 
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=DLAM,
-                 dlam_max=DLAM_MAX, dlam_min=1e-3, iterations=200, max_rounds=4, creep=None,
+                 dlam_max=DLAM_MAX, dlam_min=1e-3, iterations=200, max_rounds=MAX_ROUNDS, creep=None,
                  progress=None, checkpoint=None, partial=None, increments=(), reanchor=None):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
     to lam = 1 (see the module docstring).
