@@ -482,6 +482,9 @@ def test_a_resume_may_raise_the_round_budget_and_records_it(monkeypatch, tmp_pat
     _rounds_ending_early(monkeypatch, [1e-4], calls)
     failed = fabric_relax._increment(model, state, 0.8, 1e-3, 5, 4, np.inf, start=partial)
     assert failed[0] is None and calls == []
+    # and the failure says the rounds were carrying the swatch far, not hovering
+    assert "each of its 4 rounds moved the swatch 4-4 (more than a yarn radius)" in failed[1]
+    assert "--max-rounds" in failed[1]
 
 
 def test_a_resume_keeps_the_early_rounds_budget_and_refuses_another_protocol(monkeypatch,

@@ -275,8 +275,16 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
                              ends=tuple(ends), moves=tuple(moves), early=early))
     if result is None or not result.converged:
         residual = f"{result.residual:.2e}" if result is not None else "not computed"
+        # rounds that each carry the swatch yarn radii on are not hovering at
+        # an equilibrium: it is sliding, or snapping, somewhere far (25 x 35 at
+        # alpha 0.1 near lam 0.79: 4.0, 4.9, 4.4 mm a round); a smaller
+        # increment comes back to the same slide, more rounds may finish it
+        slide = (f"; each of its {len(moves)} rounds moved the swatch {min(moves):.3g}-"
+                 f"{max(moves):.3g} (more than a yarn radius): a long slide or a snap, which "
+                 f"more rounds an increment (--max-rounds) may finish"
+                 if arm and len(moves) >= 2 and min(moves) > arm else "")
         return failed(f"no converged friction round at lam = {lam:.4g} in {k} rounds "
-                      f"(residual {residual})")
+                      f"(residual {residual}){slide}")
     return result, Increment(lam, total, result.residual, result.energy, gap,
                              before + time.perf_counter() - t, True, moved)
 
