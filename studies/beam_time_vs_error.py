@@ -1,6 +1,6 @@
 """Run time against error of a beam curl relaxation (issue 12's plot, beam side).
 
-    python studies/beam_time_vs_error.py --run RUN [--out DIR]
+    python studies/beam_time_vs_error.py --run RUN [--out DIR] [--earlier CSV]
 
 Reads a ``knitfem curl --out RUN`` folder (finished or not): the checkpoint's
 increments (homotopy lam, iterations, end residual, relaxation seconds, accepted)
@@ -12,7 +12,9 @@ intermediate shapes are equilibria at lam < 1 (part of the pre-stretch and of th
 straightening), not iterates of the final problem, so the rolls show how the answer
 forms along the path and the time it takes; the error of the answer itself is the final
 increment's residual (and its friction rounds).  A finished run's summary, when
-present, adds its final rolls.
+present, adds its final rolls.  A run carried over sessions may have lost the path
+.vtu of its early increments; ``--earlier CSV`` (this script's csv from before) fills
+those increments' rolls, matched by position and lam.
 """
 import argparse
 import csv
@@ -56,6 +58,19 @@ def path_rows(run, scene_dict, table):
     return rows
 
 
+def fill_from_earlier(rows, earlier):
+    """Rolls of increments without a path .vtu, from an earlier csv of the same run."""
+    with open(earlier, newline="") as f:
+        old = list(csv.DictReader(f))
+    for row, prev in zip(rows, old):
+        if abs(float(prev["lam"]) - row["lam"]) > 1e-9:
+            raise SystemExit(f"--earlier: {earlier} is another path (lam {prev['lam']} where "
+                             f"this run has {row['lam']:.6g})")
+        if "roll_left" not in row and prev.get("curl"):
+            row.update(curl=prev["curl"], **{f"roll_{e}": float(prev[f"roll_{e}"]) for e in EDGES})
+    return rows
+
+
 def plot(rows, summary, png, title):
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 7), sharex=True)
     shaped = [r for r in rows if "roll_left" in r]
@@ -92,6 +107,8 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--run", type=Path, required=True, help="a knitfem curl --out folder")
     p.add_argument("--out", type=Path, default=None, help="default: the run folder")
+    p.add_argument("--earlier", type=Path, default=None,
+                   help="an earlier csv of this run: rolls of increments whose .vtu is lost")
     args = p.parse_args()
     if not (args.run / "checkpoint.npz").exists():
         p.error(f"--run: {args.run} holds no checkpoint.npz (a knitfem curl --out folder)")
@@ -102,6 +119,8 @@ def main():
     summary_path = args.run / f"curl_{tag}.json"
     summary = json.loads(summary_path.read_text()) if summary_path.exists() else None
     rows = path_rows(args.run, scene, table)
+    if args.earlier:
+        rows = fill_from_earlier(rows, args.earlier)
     with open(out / f"time_vs_error_beam_{tag}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=["lam", "relax_s", "iterations", "residual", "accepted",
                                           "curl"] + [f"roll_{e}" for e in EDGES], restval="")
