@@ -1,4 +1,5 @@
-"""The beam run-time-against-error study: rolls of increments whose path .vtu is lost."""
+"""The studies that read a beam curl run's folder: the run time against error
+(rolls of increments whose path .vtu is lost) and the checkpoint report."""
 import csv
 import sys
 from pathlib import Path
@@ -7,6 +8,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
 from beam_time_vs_error import EDGES, fill_from_earlier  # noqa: E402
+from checkpoint_report import report  # noqa: E402
 
 
 def _write(path, rows):
@@ -37,3 +39,27 @@ def test_an_earlier_csv_of_another_path_is_refused(tmp_path):
     _write(earlier, [dict(lam=0.3, curl="flat", roll_left=0, roll_right=0, roll_top=0, roll_bottom=0)])
     with pytest.raises(SystemExit, match="another path"):
         fill_from_earlier([dict(lam=0.1, accepted=True)], earlier)
+
+
+def test_the_checkpoint_report_reads_a_partial_increment(tmp_path):
+    """A partial state moved rigidly is no change of shape; the rounds' moves are
+    given in yarn radii as well."""
+    import numpy as np
+    from knitfem.beam.model import BeamState
+    from knitfem.scenes import curl as curl_module
+    from knitfem.scenes import fabric_relax
+    from knitfem.scenes.fabric import FabricScene, build
+    scene = FabricScene(3, 4, elements_per_loop=16)
+    model, _, _ = build(scene)
+    state = model.initial_state()
+    moved = BeamState(state.x + [1.0, 2.0, 2.0], state.q)
+    partial = fabric_relax.Partial(0.8, moved, 2, 400, np.inf, 12.0, ends=(1e-2, 3e-2),
+                                   moves=(2.0, 4.0))
+    curl_module._save_checkpoint(tmp_path / "checkpoint.npz", scene, state, 0.78, 0.02, [], None,
+                                 partial)
+    r = report(tmp_path)
+    assert r["lam"] == 0.78 and r["partial"]["rounds"] == 2 and r["partial"]["steps"] == 400
+    assert r["partial"]["round_moves_over_r"] == pytest.approx([2.0 / scene.radius, 4.0 / scene.radius])
+    change = r["partial"]["shape_change"]
+    assert change["max"] < 1e-9 and change["shift"] == pytest.approx(3.0)
+    assert r["partial"]["shape"]["roll_deg"] == pytest.approx(r["equilibrium"]["roll_deg"])
