@@ -24,8 +24,8 @@ API
     ``estimate(values)`` -> seconds (``what="run time"``) or bytes
     (``what="memory"``); above ``limit`` (a number or a function of the
     values; default :data:`TIME_LIMIT` or :func:`memory_limit`) the run is
-    refused naming ``options`` and the estimate, unless ``--no-limits`` was
-    given.
+    refused naming ``options`` (a tuple of flags, or a function of the values
+    giving one) and the estimate, unless ``--no-limits`` was given.
 ``OptionSet(*specs)``
     ``.add_to(parser)`` (adds the options and, if there are budgets,
     ``--no-limits``); ``.validate(args)`` fills defaults in ``args`` and raises
@@ -193,7 +193,7 @@ class Budget:
     that must stay below ``limit`` unless ``--no-limits`` is given."""
     what: str
     estimate: object
-    options: tuple = ()
+    options: object = ()              # flags, or a function of the values giving them
     limit: object = None              # default: TIME_LIMIT or memory_limit(), read when run
 
     def run(self, values):
@@ -204,8 +204,10 @@ class Budget:
         limit = float(limit)
         values.estimates[self.what] = cost
         if cost > limit and not getattr(values, "no_limits", False):
-            named = ", ".join(f"{o} {fmt(getattr(values, _dest(o)))}" for o in self.options)
-            raise OptionError(self.options[0] if self.options else OVERRIDE,
+            # the options the cost grows with may depend on the run (a model's own)
+            options = self.options(values) if callable(self.options) else self.options
+            named = ", ".join(f"{o} {fmt(getattr(values, _dest(o)))}" for o in options)
+            raise OptionError(options[0] if options else OVERRIDE,
                               f"{named}: estimated {self.what} {_amount(self.what, cost)} "
                               f"exceeds the limit of {_amount(self.what, limit)}; make the "
                               f"problem smaller or pass {OVERRIDE} to run anyway")

@@ -261,6 +261,27 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
         assert len(err.splitlines()) == 1 and flag in err
 
 
+def test_the_bspline_run_time_is_its_time_limit_not_the_beams():
+    """The B-spline relaxation stops at --max-time: its estimate is that plus
+    the building and writing, and a refusal names --max-time (the beam's
+    estimate of a 25 x 35 is hours, and once refused a 5-minute B-spline run)."""
+    import argparse
+    from knitfem.scenes.curl_command import OPTIONS, seconds
+    from knitfem.options import OptionError
+
+    def values(*flags, **given):
+        parser = argparse.ArgumentParser()
+        parser.add_argument("--model", default="beam")
+        OPTIONS.add_to(parser)
+        argv = [f"--{k.replace('_', '-')}={v}" for k, v in given.items()] + list(flags)
+        return OPTIONS.validate(parser.parse_args(argv))
+    short = values(model="bspline", nw=25, nc=35, max_time=300)
+    assert seconds(short) == pytest.approx(300 + 0.1 * 25 * 35)
+    assert seconds(values("--no-limits", nw=25, nc=35)) > 3600        # the beam's: hours
+    with pytest.raises(OptionError, match="--max-time 3600.*estimated run time"):
+        values(model="bspline", nw=25, nc=35, max_time=3600)
+
+
 def test_a_fixed_inflation_knits_that_geometry_and_a_too_small_one_is_refused():
     """The radius inflation the swatch is knitted with grows as the elements
     per loop fall; a refinement study holds it fixed (``inflation``): the

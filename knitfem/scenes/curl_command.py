@@ -8,8 +8,9 @@
                  [--reanchor SHARE] [--max-rounds 4] [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
-Cost model: ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
-seconds; refused above the library's time limit unless ``--no-limits``.
+Cost model (beam): ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
+seconds; (bspline) ``--max-time`` plus ``BSPLINE_S_PER_LOOP`` a loop; refused above
+the library's time limit unless ``--no-limits``.
 Calibrated on the loaded 2-core machine with the co-rotated friction (the
 default): a 5 x 5 at alpha 0.2 and 24 elements per loop, 4 440 unknowns,
 1 862 iterations in 195 s (2.4e-5 s per unknown and iteration, 2026-12-03;
@@ -32,7 +33,13 @@ def unknowns(v):
     return 6 * per_loop * (v.nw * v.nc + 2 * v.nw + v.nc)
 
 
+BSPLINE_S_PER_LOOP = 0.1          # building, classifying, writing: 13 s at 10 x 35 (0.04 s)
+
+
 def seconds(v):
+    if getattr(v, "model", "beam") == "bspline":
+        # FIRE stops at --max-time; a Newton finish runs only after it converged
+        return v.max_time + BSPLINE_S_PER_LOOP * v.nw * v.nc
     paths = getattr(v, "paths", None)
     if paths is not None:                   # one run per schedule (checked before budgets)
         from .curl_paths import parse_paths
@@ -139,7 +146,8 @@ OPTIONS = OptionSet(
     RESUME,
     Check(_beam_only_flags),
     Budget("memory", memory, ("--nw", "--nc", "--elements-per-loop")),
-    Budget("run time", seconds, ("--nw", "--nc", "--elements-per-loop")),
+    Budget("run time", seconds, lambda v: ("--max-time", "--nw", "--nc")
+           if getattr(v, "model", "beam") == "bspline" else ("--nw", "--nc", "--elements-per-loop")),
 )
 
 
