@@ -47,3 +47,16 @@ def test_cli_beam_still_takes_the_poisson_ratio(capsys):
     assert main(["popup", "--poisson", "0.8", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert err == "knitfem popup: error: --poisson must be a number in (-1, 0.5], got 0.8\n"
+
+
+def test_a_run_ended_by_its_time_limit_alone_shows_no_step_eta():
+    """With no step budget (only --max-time ends a B-spline run) the bar counts
+    steps without a percentage or an ETA of 1e9 steps; a real budget keeps them."""
+    from knitfem.bspline.relax import UNBOUNDED_STEPS, progress_bar
+    assert progress_bar(False, 50, "FIRE") is None
+    unbounded, bounded = progress_bar(True, UNBOUNDED_STEPS, "FIRE"), progress_bar(True, 50, "FIRE")
+    try:
+        assert unbounded.total is None and bounded.total == 50
+    finally:
+        unbounded.close()
+        bounded.close()

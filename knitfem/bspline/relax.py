@@ -53,12 +53,19 @@ class Relaxed:
     report: object = field(default=None, repr=False)
 
 
+# a step budget that stands for "none": only the time limit ends the run
+UNBOUNDED_STEPS = 10**9
+
+
 def progress_bar(progress, total, desc):
-    """A tqdm bar over ``total`` steps, or None when ``progress`` is off."""
+    """A tqdm bar over ``total`` steps (a count and rate only, no percentage
+    or ETA, when ``total`` is None or UNBOUNDED_STEPS), or None when
+    ``progress`` is off."""
     if not progress:
         return None
     from tqdm import tqdm
-    return tqdm(total=total, desc=desc, unit="step", leave=False)
+    known = total is not None and total < UNBOUNDED_STEPS
+    return tqdm(total=total if known else None, desc=desc, unit="step", leave=False)
 
 
 def _residual(model, y):
