@@ -387,4 +387,3 @@ def test_a_stop_ends_the_minimisation_unconverged_where_it_was():
         np.full(4, 3.0))[0]
     whole = minimize(Quartic(), np.full(4, 3.0), tol=1e-12, max_iter=50)
     assert whole.converged and not whole.stopped and whole.iterations > 3
-
