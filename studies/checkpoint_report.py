@@ -19,9 +19,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-
-EDGES = ("left", "right", "top", "bottom")
-COLUMNS = ("lam", "iterations", "residual", "energy", "min_gap", "seconds", "accepted", "moved")
+from beam_time_vs_error import EDGES, increments
 
 
 def _shape(x, swatch):
@@ -36,13 +34,13 @@ def report(run):
     from knitfem.analysis import shape_change
     from knitfem.scenes.curl import checkpoint_protocol
     from knitfem.scenes.fabric import FabricScene, build
+    scene, table = increments(run)
     data = np.load(run / "checkpoint.npz")
-    scene = json.loads(str(data["scene"]))
     _, swatch, _ = build(FabricScene(**scene))
     out = {"run": str(run), "nw": scene["nw"], "nc": scene["nc"], "alpha": scene["alpha"],
            "lam": float(data["lam"]), "dlam": float(data["dlam"]),
            "protocol": checkpoint_protocol(data),
-           "increments": [dict(zip(COLUMNS, map(float, row))) for row in data["increments"]],
+           "increments": [{k: float(v) for k, v in inc.items()} for inc in table],
            "equilibrium": _shape(data["x"], swatch)}
     if "partial_x" in data.files:
         target, rounds, steps, gap, seconds = map(float, data["partial_numbers"])

@@ -26,10 +26,14 @@ S_PER_DOF_ITERATION = 2.5e-5      # s per unknown per minimisation iteration (se
 ITERATIONS = 2600                 # minimisation iterations of a 5 x 5 relaxation
 
 
+def _bspline(v):
+    return getattr(v, "model", "beam") == "bspline"
+
+
 def unknowns(v):
     """Beam unknowns: 6 per node, elements_per_loop nodes per loop, plus turns and bind-off
     (the bspline model: its 16 segments per loop, as the beam's 16 once were)."""
-    per_loop = v.elements_per_loop if getattr(v, "model", "beam") == "beam" else 16
+    per_loop = 16 if _bspline(v) else v.elements_per_loop
     return 6 * per_loop * (v.nw * v.nc + 2 * v.nw + v.nc)
 
 
@@ -37,7 +41,7 @@ BSPLINE_S_PER_LOOP = 0.1          # building, classifying, writing: 13 s at 10 x
 
 
 def seconds(v):
-    if getattr(v, "model", "beam") == "bspline":
+    if _bspline(v):
         # FIRE stops at --max-time; a Newton finish runs only after it converged
         return v.max_time + BSPLINE_S_PER_LOOP * v.nw * v.nc
     paths = getattr(v, "paths", None)
@@ -73,7 +77,7 @@ def _yarn_fits(v):
 def _resume_needs_out(v):
     if getattr(v, "resume", False) and not getattr(v, "out", None):
         refuse("--resume", "needs --out (the folder holding the checkpoint)", True)
-    if getattr(v, "resume", False) and getattr(v, "model", "beam") == "bspline":
+    if getattr(v, "resume", False) and _bspline(v):
         refuse("--resume", "applies to --model beam only (the bspline relaxation keeps no "
                "checkpoint)", True)
 
@@ -83,16 +87,16 @@ RESUME = Check(_resume_needs_out)     # knitfem curl's own (not a sweep study's 
 
 def _beam_only_flags(v):
     frame = getattr(v, "friction_frame", None)
-    if frame is not None and getattr(v, "model", "beam") == "bspline":
+    if frame is not None and _bspline(v):
         refuse("--friction-frame", "applies to --model beam only (the bspline model is "
                "frictionless)", frame)
-    if getattr(v, "bindoff_prestretch", False) and getattr(v, "model", "beam") == "bspline":
+    if getattr(v, "bindoff_prestretch", False) and _bspline(v):
         refuse("--bindoff-prestretch", "applies to --model beam only (the bspline bind-off "
                "keeps its knitted length)", True)
     paths = getattr(v, "paths", None)
     if paths is not None:
         from .curl_paths import SCHEDULES, parse_paths
-        if getattr(v, "model", "beam") == "bspline":
+        if _bspline(v):
             refuse("--paths", "applies to --model beam only (the bspline relaxation has no "
                    "homotopy)", paths)
         if parse_paths(paths) is None:
@@ -146,8 +150,8 @@ OPTIONS = OptionSet(
     RESUME,
     Check(_beam_only_flags),
     Budget("memory", memory, ("--nw", "--nc", "--elements-per-loop")),
-    Budget("run time", seconds, lambda v: ("--max-time", "--nw", "--nc")
-           if getattr(v, "model", "beam") == "bspline" else ("--nw", "--nc", "--elements-per-loop")),
+    Budget("run time", seconds, lambda v: ("--max-time", "--nw", "--nc") if _bspline(v)
+           else ("--nw", "--nc", "--elements-per-loop")),
 )
 
 
