@@ -504,8 +504,8 @@ def test_a_resume_may_raise_the_round_budget_and_records_it(monkeypatch, tmp_pat
     failed = fabric_relax._increment(model, state, 0.8, 1e-3, 5, 4, np.inf, start=partial)
     assert failed[0] is None and calls == []
     # and the failure says the rounds were carrying the swatch far, not hovering
-    assert "each of its 4 rounds moved the swatch 4-4 (more than a yarn radius)" in failed[1]
-    assert "--max-rounds" in failed[1]
+    assert "each of its 4 rounds moved the swatch 4-4 (more than a yarn radius;" in failed[1]
+    assert "--max-rounds" in failed[1] and "--snap-rounds" in failed[1]
 
 
 def test_a_resume_keeps_the_early_rounds_budget_and_refuses_another_protocol(monkeypatch,
@@ -643,6 +643,71 @@ def test_final_rounds_go_on_while_their_moves_halve(monkeypatch, tmp_path):
     _scripted_rounds(monkeypatch, [1e-9] * 19, moves=[0.1, 0.05, 0.03, 0.025, 0.012, 0.01] * 3)
     result, inc = fabric_relax._increment(model, state, 1.0, 1e-8, 5, 4, 1e-3, extra_rounds=8)
     assert result is not None and inc.iterations == 4 and abs(inc.moved - 0.025) < 1e-12
+
+
+def test_an_increment_takes_snap_rounds_while_its_rounds_slide_the_swatch():
+    """The round budget's decision on recorded sequences (in yarn radii r):
+    the 55 x 35's rounds at lam 0.85 (6.1, 6.1, 25 r, unconverged) slide on
+    and get snap rounds; rounds hovering near an equilibrium (0.3, 0.5,
+    0.4 r) and a single long round do not; the snap budget is a cap."""
+    r = 0.4
+    slide = [6.1 * r, 6.1 * r, 25 * r, 3.0 * r]
+    ends = [1e-2] * 4
+    assert fabric_relax._another_round(4, ends, slide, r, 4, snap_rounds=8)
+    assert not fabric_relax._another_round(4, ends, slide, r, 4)     # the protocol before
+    assert not fabric_relax._another_round(12, ends, slide, r, 4, snap_rounds=8)
+    hover = [0.3 * r, 0.5 * r, 0.4 * r, 0.45 * r]
+    assert not fabric_relax._another_round(4, ends, hover, r, 4, snap_rounds=8)
+    ended = [6.1 * r, 6.1 * r, 25 * r, 0.5 * r]                       # the slide is over
+    assert not fabric_relax._another_round(4, ends, ended, r, 4, snap_rounds=8)
+    assert not fabric_relax._sliding([25 * r], r)
+    assert fabric_relax._another_round(3, ends, hover, r, 4)          # within the budget
+
+
+def test_a_sliding_increment_finishes_in_its_snap_rounds_instead_of_halving(monkeypatch):
+    """Rounds that each carry the swatch 6 yarn radii, unconverged, then settle
+    in round 7: with snap rounds the increment ends there (7 rounds), without
+    them it fails after its budget of 4, naming the slide."""
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
+    r = fabric_relax._smallest_radius(model)
+    state = model.initial_state()
+    residuals = [1e-1] * 6 + [1e-9]
+    moves = [6.0 * r] * 6 + [0.1 * r]
+    _scripted_rounds(monkeypatch, residuals, moves=moves)
+    result, inc = fabric_relax._increment(model, state, 0.85, 1e-8, 5, 4, np.inf,
+                                          snap_rounds=8)
+    assert result is not None and result.converged and inc.iterations == 7
+    _scripted_rounds(monkeypatch, residuals, moves=moves)
+    result, reason, inc = fabric_relax._increment(model, state, 0.85, 1e-8, 5, 4, np.inf)
+    assert result is None and "in 4 rounds" in reason and "a long slide or a snap" in reason
+    _scripted_rounds(monkeypatch, [1e-1] * 20, moves=[6.0 * r] * 20)   # a slide without end
+    result, reason, inc = fabric_relax._increment(model, state, 0.85, 1e-8, 5, 4, np.inf,
+                                                  snap_rounds=3)
+    assert result is None and "in 7 rounds" in reason and inc.iterations == 7
+
+
+def test_a_checkpoint_from_before_snap_rounds_records_their_arrival(tmp_path):
+    """A checkpoint written before snap rounds existed ran none (its protocol
+    does not name them): a resume under the default records the change from 0
+    to 8 at its lam; one written now names its budget, and a resume under the
+    same budget records nothing."""
+    import json
+    from knitfem.scenes import curl as curl_module
+    scene = FabricScene(3, 3, elements_per_loop=16)
+    model, _, _ = build(scene)
+    path = tmp_path / "checkpoint.npz"
+    curl_module._save_checkpoint(path, scene, model.initial_state(), 0.6, 0.1, [], None)
+    data = dict(np.load(path))
+    assert json.loads(str(data["protocol"])) == {"snap_rounds": fabric_relax.SNAP_ROUNDS}
+    assert curl_module.resumed_protocol(curl_module.checkpoint_protocol(np.load(path)),
+                                        None, 0.6) == {}
+    data["protocol"] = np.array(json.dumps({}))         # as the code before wrote it
+    np.savez(path, **data)
+    assert curl_module.load_checkpoint(path, scene, model) is not None
+    record = curl_module.resumed_protocol(curl_module.checkpoint_protocol(np.load(path)),
+                                          None, 0.6)
+    assert record == {"budget_changes": [{"lam": 0.6, "option": "snap_rounds", "from": 0,
+                                          "to": fabric_relax.SNAP_ROUNDS}]}
 
 
 def _contact_rounds(scene):

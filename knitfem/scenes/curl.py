@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .fabric import FabricScene, Homotopy, build, yarn_axial_strain
-from .fabric_relax import FabricRelaxationError, relax_fabric
+from .fabric_relax import SNAP_ROUNDS, FabricRelaxationError, relax_fabric
 
 VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
 
@@ -32,10 +32,13 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
                      protocol=None):
     """Atomically write the relaxation's state after an increment, or after a
     friction round of the increment under way (``partial``); ``protocol``: the
-    relaxation options the run was given."""
+    relaxation options the run was given (its snap-round budget always
+    written: a checkpoint without one predates it, and ran none)."""
+    protocol = dict(protocol or {})
+    protocol.setdefault("snap_rounds", SNAP_ROUNDS)
     data = {"x": state.x, "q": state.q, "lam": lam, "dlam": dlam,
             "scene": json.dumps(scene.as_dict(), sort_keys=True),
-            "protocol": json.dumps(protocol or {}, sort_keys=True),
+            "protocol": json.dumps(protocol, sort_keys=True),
             "increments": np.array([[i.lam, i.iterations, i.residual, i.energy, i.min_gap,
                                      i.seconds, i.accepted, i.moved] for i in increments])}
     anchors = [("", partial.equilibrium if partial is not None else
@@ -65,7 +68,10 @@ def checkpoint_scene(data):
 
 # relaxation options a resume may change: budgets, which decide only what an
 # increment that has used up the old one does next (the change is recorded)
-BUDGETS = ("max_rounds",)
+BUDGETS = ("max_rounds", "snap_rounds")
+# a budget's value where a protocol does not name it, when that is not
+# relax_fabric's default (None): checkpoints name their snap rounds
+BUDGET_DEFAULTS = {"snap_rounds": SNAP_ROUNDS}
 
 
 def _path_protocol(protocol):
@@ -75,8 +81,11 @@ def _path_protocol(protocol):
 
 def checkpoint_protocol(data):
     """The relaxation protocol a checkpoint (its loaded npz) was written with,
-    its budget changes (``budget_changes``) included; {} for the defaults."""
-    return json.loads(str(data["protocol"])) if "protocol" in data.files else {}
+    its budget changes (``budget_changes``) included; {} for the defaults.
+    One written before snap rounds existed (2026-12-05) ran none."""
+    protocol = json.loads(str(data["protocol"])) if "protocol" in data.files else {}
+    protocol.setdefault("snap_rounds", 0)
+    return protocol
 
 
 def resumed_protocol(kept, given, lam):
@@ -86,7 +95,8 @@ def resumed_protocol(kept, given, lam):
     new value; None = relax_fabric's default), those made before included."""
     changes = list((kept or {}).get("budget_changes", []))
     for key in BUDGETS:
-        old, new = (kept or {}).get(key), (given or {}).get(key)
+        old = (kept or {}).get(key, BUDGET_DEFAULTS.get(key))
+        new = (given or {}).get(key, BUDGET_DEFAULTS.get(key))
         if old != new:
             changes.append({"lam": lam, "option": key, "from": old, "to": new})
     record = dict(_path_protocol(given), **{k: given[k] for k in BUDGETS if k in (given or {})})

@@ -5,7 +5,7 @@
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
                  [--bindoff-prestretch] [--tail-ties 1] [--paths default,coarse]
-                 [--reanchor SHARE] [--max-rounds 4] [--out DIR]
+                 [--reanchor SHARE] [--max-rounds 4] [--snap-rounds 8] [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model (beam): ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
@@ -146,6 +146,11 @@ OPTIONS = OptionSet(
             "change it (recorded under the summary's protocol, budget_changes): past a snap "
             "the swatch needs more rounds than 4, and halving the increment never ends "
             "(README: 'A snap near lam 0.8')"),
+    Integer("--snap-rounds", None, "[0, 50]", when=("model", "beam", "the bspline "
+            "relaxation has no friction rounds"), help="beam: rounds an increment may take "
+            "beyond --max-rounds while each slides the swatch more than a yarn radius (a snap "
+            "under way, which a halved increment would come back to; default 8, 0: halve at "
+            "once as before 2026-12-05). A resume may change it (recorded as --max-rounds)"),
     Check(_yarn_fits),
     RESUME,
     Check(_beam_only_flags),
@@ -217,9 +222,11 @@ def run(args):
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
             protocol = {"reanchor": args.reanchor} if args.reanchor is not None else {}
-            from .fabric_relax import MAX_ROUNDS
+            from .fabric_relax import MAX_ROUNDS, SNAP_ROUNDS
             if args.max_rounds is not None and args.max_rounds != MAX_ROUNDS:
                 protocol["max_rounds"] = args.max_rounds
+            if args.snap_rounds is not None and args.snap_rounds != SNAP_ROUNDS:
+                protocol["snap_rounds"] = args.snap_rounds
             protocol = protocol or None
             if args.paths is not None:
                 from .curl_paths import curl_paths, parse_paths

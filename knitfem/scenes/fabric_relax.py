@@ -26,7 +26,14 @@ straight, pre-stretched yarn (lam = 1) in quasi-static increments:
    more while the rounds' final residuals keep halving (a contracting fixed
    point of the lagged friction: a smaller increment would only come back to
    the same rounds at lam = 1 -- seen on the 25 x 35, whose final rounds ended
-   at 0.8, 0.26, 2e-3, 5e-4, 2e-5, 2e-6 against tol 1e-8).
+   at 0.8, 0.26, 2e-3, 5e-4, 2e-5, 2e-6 against tol 1e-8);
+5. any increment whose budget is spent while its last two rounds each moved
+   the swatch more than a yarn radius is in a slide or a snap, not hovering
+   at an equilibrium: it gets up to ``snap_rounds`` more rounds while that
+   lasts, since a halved increment comes back to the same slide (the 25 x 35
+   at alpha 0.1 near lam 0.79 moved 4.0, 4.9, 4.4 mm a round; the 55 x 35 at
+   0.2 near 0.85 moved 6.1, 6.1, 25 r, failed three halvings and cost 6.5 h of
+   failed attempts before ``--max-rounds 12`` was given by hand).
 
 The answer is the last round's state: a static equilibrium of the undamped
 forces (elastic, contact, ties and friction within its Coulomb cone),
@@ -50,6 +57,8 @@ from ..solve.stability import inertia, lowest_scaled_eigenvalue
 DLAM, DLAM_MAX = 0.1, 0.25
 # friction rounds an increment may take before it is halved (twice that at lam = 1)
 MAX_ROUNDS = 4
+# rounds beyond those while every round slides the swatch more than a yarn radius
+SNAP_ROUNDS = 8
 
 
 class FabricRelaxationError(RuntimeError):
@@ -205,13 +214,34 @@ def _contracting(ends, moves=()):
     return shrinking(ends, 0.5) or shrinking(moves, 0.7)
 
 
+def _sliding(moves, arm):
+    """The last two rounds each moved the swatch more than ``arm`` (a yarn
+    radius): a slide or a snap under way, not rounds hovering at an
+    equilibrium (those move a fraction of a radius: 0.3-0.05 r on the 10 x 35)."""
+    return arm > 0 and len(moves) >= 2 and min(moves[-2:]) > arm
+
+
+def _another_round(k, ends, moves, arm, max_rounds, extra_rounds=0, snap_rounds=0):
+    """After ``k`` counted rounds (final residuals ``ends``, moves ``moves``)
+    of an increment that has not ended: does another follow?  The budget is
+    ``max_rounds``; up to ``extra_rounds`` more while the rounds contract
+    (:func:`_contracting`), up to ``snap_rounds`` more while they slide
+    (:func:`_sliding`)."""
+    return (k < max_rounds
+            or (k < max_rounds + extra_rounds and _contracting(ends, moves))
+            or (k < max_rounds + snap_rounds and _sliding(moves, arm)))
+
+
 def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=None,
-               min_rounds=1, start=None, on_round=None, extra_rounds=0, reanchor=None):
+               min_rounds=1, start=None, on_round=None, extra_rounds=0, reanchor=None,
+               snap_rounds=0):
     """Friction rounds at lam until one converges (after at least
     ``min_rounds``) and moved no node more than ``creep`` (the lagged normal
     forces have settled), or ``max_rounds`` rounds of which the last
     converged; up to ``extra_rounds`` more while the rounds' final residuals
-    or their moves keep shrinking (:func:`_contracting`).  With ``reanchor``
+    or their moves keep shrinking (:func:`_contracting`), up to
+    ``snap_rounds`` more while each moves the swatch more than a yarn radius
+    (:func:`_sliding`; see :func:`_another_round`).  With ``reanchor``
     a round may end early to anchor the contacts that formed in it
     (:func:`_contacts_formed`); such rounds do not count as rounds (nor
     in the shrinking test), and once they have spent ``max_rounds x
@@ -235,9 +265,10 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     arm = _smallest_radius(model) or 0.0
     early = start.early if start is not None else 0    # steps of rounds ended early
     k = first
-    while k < max_rounds + extra_rounds:
-        if k >= max_rounds and not _contracting(ends, moves):
-            break
+
+    def more():
+        return _another_round(k, ends, moves, arm, max_rounds, extra_rounds, snap_rounds)
+    while more():
         allow = reanchor if early < max_rounds * iterations else None
         try:
             result, g = _round(model, state, lam, tol, iterations, progress, allow)
@@ -267,9 +298,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         k += 1
         # a checkpoint only where another round follows: one written after the
         # last round would resume into no round at all, without its result
-        more = k < max_rounds or (k < max_rounds + extra_rounds
-                                  and _contracting(ends, moves))
-        if on_round is not None and more:
+        if on_round is not None and more():
             on_round(Partial(lam, state, k, total, gap, before + time.perf_counter() - t,
                              contact.friction_state() if contact is not None else None,
                              ends=tuple(ends), moves=tuple(moves), early=early))
@@ -280,8 +309,9 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         # alpha 0.1 near lam 0.79: 4.0, 4.9, 4.4 mm a round); a smaller
         # increment comes back to the same slide, more rounds may finish it
         slide = (f"; each of its {len(moves)} rounds moved the swatch {min(moves):.3g}-"
-                 f"{max(moves):.3g} (more than a yarn radius): a long slide or a snap, which "
-                 f"more rounds an increment (--max-rounds) may finish"
+                 f"{max(moves):.3g} (more than a yarn radius; {snap_rounds} rounds beyond the "
+                 f"budget of {max_rounds} allowed for that): a long slide or a snap, which more "
+                 f"rounds an increment (--max-rounds, --snap-rounds) may finish"
                  if arm and len(moves) >= 2 and min(moves) > arm else "")
         return failed(f"no converged friction round at lam = {lam:.4g} in {k} rounds "
                       f"(residual {residual}){slide}")
@@ -291,7 +321,8 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
 
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=DLAM,
                  dlam_max=DLAM_MAX, dlam_min=1e-3, iterations=200, max_rounds=MAX_ROUNDS, creep=None,
-                 progress=None, checkpoint=None, partial=None, increments=(), reanchor=None):
+                 progress=None, checkpoint=None, partial=None, increments=(), reanchor=None,
+                 snap_rounds=SNAP_ROUNDS):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
     to lam = 1 (see the module docstring).
 
@@ -311,7 +342,9 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     None (rounds run whole) or a share: a round ends early once the
     segments that came into contact in it exceed that share of those touching
     at its start (:func:`_contacts_formed`; see :func:`_increment` for how
-    such rounds are counted).  Returns :class:`FabricEquilibrium`.
+    such rounds are counted).  snap_rounds : rounds an increment may take
+    beyond ``max_rounds`` while each slides the swatch more than a yarn radius
+    (0: none; the protocol before 2026-12-05).  Returns :class:`FabricEquilibrium`.
     """
     state = model.initial_state() if state is None else state
     if creep is None:
@@ -343,7 +376,8 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
                                            iterations, 2 * max_rounds if last else max_rounds,
                                            creep if last else np.inf, progress,
                                            2 if last else 1, partial, on_round,
-                                           2 * max_rounds if last else 0, reanchor)
+                                           2 * max_rounds if last else 0, reanchor,
+                                           snap_rounds)
         partial = None
         if result is None:
             # the failed attempt's work counts (iterations, time), not its path
