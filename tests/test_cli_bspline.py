@@ -50,13 +50,19 @@ def test_cli_beam_still_takes_the_poisson_ratio(capsys):
 
 
 def test_a_run_ended_by_its_time_limit_alone_shows_no_step_eta():
-    """With no step budget (only --max-time ends a B-spline run) the bar counts
-    steps without a percentage or an ETA of 1e9 steps; a real budget keeps them."""
-    from knitfem.bspline.relax import UNBOUNDED_STEPS, progress_bar
+    """With no step budget (only --max-time ends a B-spline run) the steps run
+    without end and the bar counts them without a percentage or an ETA; a real
+    budget keeps both; a run with neither limit is refused, naming max_steps."""
+    import itertools
+    from knitfem.bspline.relax import progress_bar, step_numbers
     assert progress_bar(False, 50, "FIRE") is None
-    unbounded, bounded = progress_bar(True, UNBOUNDED_STEPS, "FIRE"), progress_bar(True, 50, "FIRE")
+    unbounded, bounded = progress_bar(True, None, "FIRE"), progress_bar(True, 50, "FIRE")
     try:
         assert unbounded.total is None and bounded.total == 50
     finally:
         unbounded.close()
         bounded.close()
+    assert list(itertools.islice(step_numbers(None, 60.0), 3)) == [1, 2, 3]
+    assert list(step_numbers(3, 60.0)) == [1, 2, 3]
+    with pytest.raises(ValueError, match="max_steps"):
+        step_numbers(None, None)

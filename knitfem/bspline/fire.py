@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from .relax import Relaxed, RelaxationError, converged, progress_bar
+from .relax import Relaxed, RelaxationError, converged, progress_bar, step_numbers
 
 
 def gershgorin_masses(model, y, floor=1e-12):
@@ -31,7 +31,7 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
                max_move=None, max_time=None, progress=False, monitor=None):
     """FIRE 2.0 to a relative residual ``rtol`` (:func:`.relax.converged`);
     :class:`Relaxed` (method "fire") or :class:`RelaxationError` with the
-    last state after ``max_steps`` or ``max_time`` seconds.  dt in units of
+    last state after ``max_steps`` (None: no step limit) or ``max_time`` seconds.  dt in units of
     the Gershgorin step (1 is stable); max_move: largest control-point move
     per step (default r/4 of the contact law: no yarn jumps through another
     between two force evaluations; the velocity is scaled down to keep it);
@@ -52,7 +52,7 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
     bar = progress_bar(progress, max_steps, "FIRE")
     E, g, ref = model.reduced_energy(y)
     try:
-        for step in range(1, max_steps + 1):
+        for step in step_numbers(max_steps, max_time):
             F = -g
             P = F @ v
             if P > 0:

@@ -21,6 +21,7 @@ length): at rest, not passing through equilibrium at speed), and raise
 They find minima, i.e. stable equilibria.
 """
 from dataclasses import dataclass, field
+import itertools
 import time
 
 import numpy as np
@@ -53,19 +54,24 @@ class Relaxed:
     report: object = field(default=None, repr=False)
 
 
-# a step budget that stands for "none": only the time limit ends the run
-UNBOUNDED_STEPS = 10**9
+def step_numbers(max_steps, max_time):
+    """The steps 1, 2, ... of a relaxation: up to ``max_steps``, or without
+    end (None) when a time limit ``max_time`` ends it instead."""
+    if max_steps is None:
+        if max_time is None:
+            raise ValueError("max_steps: a relaxation needs a step limit (a positive integer) "
+                             "or a time limit max_time; got neither")
+        return itertools.count(1)
+    return range(1, int(max_steps) + 1)
 
 
 def progress_bar(progress, total, desc):
     """A tqdm bar over ``total`` steps (a count and rate only, no percentage
-    or ETA, when ``total`` is None or UNBOUNDED_STEPS), or None when
-    ``progress`` is off."""
+    or ETA, when ``total`` is None), or None when ``progress`` is off."""
     if not progress:
         return None
     from tqdm import tqdm
-    known = total is not None and total < UNBOUNDED_STEPS
-    return tqdm(total=total if known else None, desc=desc, unit="step", leave=False)
+    return tqdm(total=total, desc=desc, unit="step", leave=False)
 
 
 def _residual(model, y):
@@ -172,8 +178,8 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
     mechanical energy hardly fell while the kinetic energy oscillated) is
     ended by kinetic damping (velocities zeroed at every peak of the kinetic
     energy) for the next ``patience`` checks.  After ``max_time`` seconds or
-    ``max_steps`` the relaxation gives up (:class:`RelaxationError`, last
-    state kept).  monitor(step, y, residual, E, ke) is called at every check."""
+    ``max_steps`` (None: no step limit) the relaxation gives up
+    (:class:`RelaxationError`, last state kept).  monitor(step, y, residual, E, ke) is called at every check."""
     for name, value in (("rtol", rtol), ("ke_rtol", ke_rtol), ("damping", damping)):
         if not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be finite and in [0, inf), got {value!r}")
@@ -195,7 +201,7 @@ def relax_dynamic(model, y0, *, rtol=1e-6, ke_rtol=1e-12, max_steps=200000, dt=N
     # energy has doubled since the last checkpoint sends us back there with half the step
     checkpoint, E_checkpoint, halvings = y.copy(), np.inf, 0
     try:
-        for step in range(1, max_steps + 1):
+        for step in step_numbers(max_steps, max_time):
             with np.errstate(all="ignore"):
                 if dissipative_contact:
                     E, g, ref, f_contact = model.reduced_forces(y, v)

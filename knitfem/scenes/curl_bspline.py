@@ -28,7 +28,7 @@ import numpy as np
 from ..bspline import RelaxationError, relax_dynamic, relax_newton, stability
 from ..bspline.contact import overlap
 from ..bspline.fire import relax_fire
-from ..bspline.relax import UNBOUNDED_STEPS, converged
+from ..bspline.relax import converged
 from .swatch_bspline import YarnConstants, bspline_swatch, prestretch
 
 METHODS = ("fire", "dynamic")
@@ -80,7 +80,7 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
     y = model.reduce(model._initial())
     start = time.perf_counter()
     info = {"method": method, "converged": False, "message": "", "oscillations": 0}
-    steps = UNBOUNDED_STEPS if max_steps is None else int(max_steps)
+    steps = None if max_steps is None else int(max_steps)
     try:
         if method == "fire":
             result = relax_fire(model, y, rtol=rtol, max_steps=steps, max_time=max_time,
