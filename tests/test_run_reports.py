@@ -1,5 +1,6 @@
-"""The studies that read a beam curl run's folder: the run time against error
-(rolls of increments whose path .vtu is lost) and the checkpoint report."""
+"""The studies that read beam curl runs: the run time against error (rolls
+of increments whose path .vtu is lost), the checkpoint report and the
+run-time estimate's calibration."""
 import csv
 import sys
 from pathlib import Path
@@ -9,6 +10,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
 from beam_time_vs_error import EDGES, fill_from_earlier  # noqa: E402
 from checkpoint_report import report  # noqa: E402
+import runtime_estimate  # noqa: E402
 
 
 def _write(path, rows):
@@ -63,3 +65,46 @@ def test_the_checkpoint_report_reads_a_partial_increment(tmp_path):
     change = r["partial"]["shape_change"]
     assert change["max"] < 1e-9 and change["shift"] == pytest.approx(3.0)
     assert r["partial"]["shape"]["roll_deg"] == pytest.approx(r["equilibrium"]["roll_deg"])
+
+
+def _summary(path, nw, nc, relax_s, iterations, corotated=True, error=None, model="beam"):
+    import json
+    scene = {"nw": nw, "nc": nc, "elements_per_loop": 32, "corotated_friction": corotated}
+    path.write_text(json.dumps({"nw": nw, "nc": nc, "model": model, "alpha": 0.2,
+                                "scene": scene, "relax_s": relax_s, "iterations": iterations,
+                                "failed_increments": 0, "error": error}))
+
+
+def test_the_runtime_study_compares_each_distinct_finished_run_with_its_estimate(tmp_path):
+    """Only finished beam runs with co-rotated friction count, a run copied
+    into two folders once; the ratio is measured over the command's own
+    estimate, whose two factors multiply back to it."""
+    from argparse import Namespace
+    from knitfem.scenes import curl_command
+    estimate = curl_command.seconds(Namespace(nw=5, nc=5, elements_per_loop=32, model="beam"))
+    _summary(tmp_path / "a.json", 5, 5, 2 * estimate, 1000)
+    (tmp_path / "copy").mkdir()
+    _summary(tmp_path / "copy" / "curl.json", 5, 5, 2 * estimate, 1000)        # adopted copy
+    _summary(tmp_path / "planes.json", 5, 5, 100.0, 1000, corotated=False)   # older friction
+    _summary(tmp_path / "failed.json", 5, 5, 100.0, 1000, error="relaxation failed")
+    _summary(tmp_path / "bspline.json", 5, 5, 100.0, 1000, model="bspline")
+    (tmp_path / "other.json").write_text("[1, 2]")
+    rows = runtime_estimate.collect([tmp_path])
+    assert len(rows) == 1
+    row = rows[0]
+    assert row["ratio"] == pytest.approx(2.0)
+    assert row["estimate_s"] == pytest.approx(estimate)
+    factors = (row["iterations"] / row["iterations_model"]) * \
+        (row["s_per_dof_iteration"] / curl_command.S_PER_DOF_ITERATION)
+    assert factors == pytest.approx(row["ratio"])
+
+
+def test_the_grid_projection_spreads_its_points_longest_first():
+    """Makespan of independent points on workers: longest first, each to the
+    first free worker; one worker sums them; never below the longest point."""
+    assert runtime_estimate.makespan([6, 5, 4, 3], 2) == 9.0
+    assert runtime_estimate.makespan([5, 4, 3, 3, 3], 2) == 10.0     # greedy, not the optimum 9
+    assert runtime_estimate.makespan([5, 4, 3], 1) == 12.0
+    assert runtime_estimate.makespan([10, 1, 1], 4) == 10.0
+    n, worker_h, wall_h, longest_h = runtime_estimate.grid_projection([5, 10], [5], 1.0, 2)
+    assert n == 2 and wall_h == pytest.approx(longest_h) and worker_h > wall_h

@@ -11,19 +11,23 @@
 Cost model (beam): ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
 seconds; (bspline) ``--max-time`` plus ``BSPLINE_S_PER_LOOP`` a loop; refused above
 the library's time limit unless ``--no-limits``.
-Calibrated on the loaded 2-core machine with the co-rotated friction (the
-default): a 5 x 5 at alpha 0.2 and 24 elements per loop, 4 440 unknowns,
-1 862 iterations in 195 s (2.4e-5 s per unknown and iteration, 2026-12-03;
-the fixed planes' iterations were ~2 x cheaper, 1.5e-5).  Friction rounds
-make the iteration count path dependent; a 10 x 35 takes several thousand.
+Calibrated on the 80 finished beam relaxations on record (co-rotated
+friction, 4 x 4 to 25 x 35, 16-48 elements per loop, on the shared 2-core
+machine with 0-2 other jobs; ``python studies/runtime_estimate.py``,
+2026-12-05): the medians of their seconds per unknown and iteration
+(1.45e-5) and of their iterations over ``loops^0.25`` (1 950 at 5 x 5).  So
+the estimate is a median: half the runs took longer, the measured / estimated
+ratios of 90 % of them within x0.39-x2.7 (x0.31-x5.9 at the extremes):
+friction rounds make the iteration count path dependent, a failed increment
+costs its rounds, the load of the machine moves the per-iteration cost.
 """
 import math
 import sys
 
 from ..options import Budget, Check, Integer, OptionSet, Real, fmt, refuse
 
-S_PER_DOF_ITERATION = 2.5e-5      # s per unknown per minimisation iteration (see above)
-ITERATIONS = 2600                 # minimisation iterations of a 5 x 5 relaxation
+S_PER_DOF_ITERATION = 1.45e-5     # s per unknown per minimisation iteration (see above)
+ITERATIONS = 1950                 # minimisation iterations of a 5 x 5 relaxation
 
 
 def _bspline(v):
