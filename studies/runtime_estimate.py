@@ -58,7 +58,6 @@ def record(path, s):
     scene = s["scene"]
     v = Namespace(nw=s["nw"], nc=s["nc"], elements_per_loop=scene["elements_per_loop"],
                   model="beam")
-    loops = v.nw * v.nc
     unknowns = curl_command.unknowns(v)
     estimate = curl_command.seconds(v)
     return {"source": str(path), "nw": v.nw, "nc": v.nc,
@@ -67,7 +66,7 @@ def record(path, s):
             "failed_increments": s.get("failed_increments"),
             "relax_s": float(s["relax_s"]), "estimate_s": estimate,
             "ratio": float(s["relax_s"]) / estimate,
-            "iterations_model": curl_command.ITERATIONS * (loops / 25.0) ** 0.25,
+            "iterations_model": curl_command.expected_iterations(v.nw * v.nc),
             "s_per_dof_iteration": float(s["relax_s"]) / (unknowns * int(s["iterations"]))}
 
 
@@ -137,7 +136,7 @@ def plot(rows, path):
     a.set_title("knitfem curl's estimate (dotted: x0.5, x2)")
     a.legend(fontsize=8)
     x = np.geomspace(loops.min(), loops.max(), 50)
-    b.semilogx(x, curl_command.ITERATIONS * (x / 25.0) ** 0.25, "k-", lw=0.8,
+    b.semilogx(x, curl_command.expected_iterations(x), "k-", lw=0.8,
                label="model: ITERATIONS (loops/25)^0.25")
     b.set_xlabel("loops N_w N_c")
     b.set_ylabel("minimisation iterations (failed attempts included)")

@@ -30,6 +30,12 @@ S_PER_DOF_ITERATION = 1.45e-5     # s per unknown per minimisation iteration (se
 ITERATIONS = 1950                 # minimisation iterations of a 5 x 5 relaxation
 
 
+def expected_iterations(loops):
+    """Minimisation iterations the cost model expects of a beam relaxation of
+    ``loops`` = N_w N_c loops (a number or an array)."""
+    return ITERATIONS * (loops / 25.0) ** 0.25
+
+
 def _bspline(v):
     return getattr(v, "model", "beam") == "bspline"
 
@@ -54,7 +60,7 @@ def seconds(v):
         runs = len(parse_paths(paths))
     else:
         runs = 1
-    return runs * S_PER_DOF_ITERATION * unknowns(v) * ITERATIONS * (v.nw * v.nc / 25.0) ** 0.25
+    return runs * S_PER_DOF_ITERATION * unknowns(v) * expected_iterations(v.nw * v.nc)
 
 
 def memory(v):
@@ -154,7 +160,7 @@ OPTIONS = OptionSet(
             "relaxation has no friction rounds"), help="beam: rounds an increment may take "
             "beyond --max-rounds while each slides the swatch more than a yarn radius (a snap "
             "under way, which a halved increment would come back to; default 8, 0: halve at "
-            "once as before 2026-12-05). A resume may change it (recorded as --max-rounds)"),
+            "once as before 2026-12-05). A resume may change it (recorded like a --max-rounds change)"),
     Check(_yarn_fits),
     RESUME,
     Check(_beam_only_flags),
