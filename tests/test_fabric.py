@@ -6,7 +6,7 @@ import pytest
 
 from knitfem.beam.energy import EnergyProblem
 from knitfem.scenes.fabric import FabricScene, Homotopy, build, yarn_axial_strain
-from knitfem.scenes import fabric_relax
+from knitfem.scenes import fabric_relax, fabric_rounds
 
 # The scenes here take 16 elements per loop, not the default 32: the tests check
 # the mechanics and the protocol, not the resolution (16 per loop locks the
@@ -653,15 +653,30 @@ def test_an_increment_takes_snap_rounds_while_its_rounds_slide_the_swatch():
     r = 0.4
     slide = [6.1 * r, 6.1 * r, 25 * r, 3.0 * r]
     ends = [1e-2] * 4
-    assert fabric_relax._another_round(4, ends, slide, r, 4, snap_rounds=8)
-    assert not fabric_relax._another_round(4, ends, slide, r, 4)     # the protocol before
-    assert not fabric_relax._another_round(12, ends, slide, r, 4, snap_rounds=8)
+    assert fabric_rounds.another_round(4, ends, slide, r, 4, snap_rounds=8)
+    assert not fabric_rounds.another_round(4, ends, slide, r, 4)     # the protocol before
+    assert not fabric_rounds.another_round(12, ends, slide, r, 4, snap_rounds=8)
     hover = [0.3 * r, 0.5 * r, 0.4 * r, 0.45 * r]
-    assert not fabric_relax._another_round(4, ends, hover, r, 4, snap_rounds=8)
+    assert not fabric_rounds.another_round(4, ends, hover, r, 4, snap_rounds=8)
     ended = [6.1 * r, 6.1 * r, 25 * r, 0.5 * r]                       # the slide is over
-    assert not fabric_relax._another_round(4, ends, ended, r, 4, snap_rounds=8)
-    assert not fabric_relax._sliding([25 * r], r)
-    assert fabric_relax._another_round(3, ends, hover, r, 4)          # within the budget
+    assert not fabric_rounds.another_round(4, ends, ended, r, 4, snap_rounds=8)
+    assert not fabric_rounds.sliding([25 * r], r)
+    assert fabric_rounds.another_round(3, ends, hover, r, 4)          # within the budget
+
+
+def test_rounds_contract_on_the_recorded_sequences_and_not_on_a_stall():
+    """Contracting rounds (each final residual at most half the one before,
+    or each move at most 0.7 of the one before) on the sequences recorded in
+    fabric_rounds' docstrings: the 25 x 35's final residuals 0.8, 0.26, 2e-3,
+    5e-4 and the 3 x 4's moves 1.7, 0.34, 0.082 r contract; a stalled
+    residual, a move that grows again, and fewer than three rounds do not."""
+    assert fabric_rounds.contracting([0.8, 0.26, 2e-3, 5e-4])
+    assert fabric_rounds.contracting([1e-2] * 3, moves=[1.7, 0.34, 0.082])
+    assert fabric_rounds.contracting([1e-2] * 3, moves=[1.8, 0.97, 0.39])
+    assert not fabric_rounds.contracting([0.8, 0.26, 0.2])                 # stalled
+    assert not fabric_rounds.contracting([1e-2] * 3, moves=[1.7, 0.34, 0.5])
+    assert not fabric_rounds.contracting([0.8, 0.26], moves=[1.7, 0.34])
+    assert not fabric_rounds.contracting([0.0, 0.0, 0.0], moves=[0.0, 0.0, 0.0])
 
 
 def test_a_sliding_increment_finishes_in_its_snap_rounds_instead_of_halving(monkeypatch):
@@ -669,7 +684,7 @@ def test_a_sliding_increment_finishes_in_its_snap_rounds_instead_of_halving(monk
     in round 7: with snap rounds the increment ends there (7 rounds), without
     them it fails after its budget of 4, naming the slide."""
     model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
-    r = fabric_relax._smallest_radius(model)
+    r = fabric_rounds.smallest_radius(model)
     state = model.initial_state()
     residuals = [1e-1] * 6 + [1e-9]
     moves = [6.0 * r] * 6 + [0.1 * r]
@@ -698,7 +713,7 @@ def test_a_checkpoint_from_before_snap_rounds_records_their_arrival(tmp_path):
     path = tmp_path / "checkpoint.npz"
     curl_module._save_checkpoint(path, scene, model.initial_state(), 0.6, 0.1, [], None)
     data = dict(np.load(path))
-    assert json.loads(str(data["protocol"])) == {"snap_rounds": fabric_relax.SNAP_ROUNDS}
+    assert json.loads(str(data["protocol"])) == {"snap_rounds": fabric_rounds.SNAP_ROUNDS}
     assert curl_module.resumed_protocol(curl_module.checkpoint_protocol(np.load(path)),
                                         None, 0.6) == {}
     data["protocol"] = np.array(json.dumps({}))         # as the code before wrote it
@@ -707,7 +722,7 @@ def test_a_checkpoint_from_before_snap_rounds_records_their_arrival(tmp_path):
     record = curl_module.resumed_protocol(curl_module.checkpoint_protocol(np.load(path)),
                                           None, 0.6)
     assert record == {"budget_changes": [{"lam": 0.6, "option": "snap_rounds", "from": 0,
-                                          "to": fabric_relax.SNAP_ROUNDS}]}
+                                          "to": fabric_rounds.SNAP_ROUNDS}]}
 
 
 def _contact_rounds(scene):

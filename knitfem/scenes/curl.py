@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from .fabric import FabricScene, Homotopy, build, yarn_axial_strain
-from .fabric_relax import SNAP_ROUNDS, FabricRelaxationError, relax_fabric
+from .fabric_relax import FabricRelaxationError, relax_fabric
+from .fabric_rounds import SNAP_ROUNDS
 
 VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
 

@@ -232,7 +232,7 @@ def run(args):
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
             protocol = {"reanchor": args.reanchor} if args.reanchor is not None else {}
-            from .fabric_relax import MAX_ROUNDS, SNAP_ROUNDS
+            from .fabric_rounds import MAX_ROUNDS, SNAP_ROUNDS
             if args.max_rounds is not None and args.max_rounds != MAX_ROUNDS:
                 protocol["max_rounds"] = args.max_rounds
             if args.snap_rounds is not None and args.snap_rounds != SNAP_ROUNDS:

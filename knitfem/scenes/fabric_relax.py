@@ -52,13 +52,10 @@ from ..beam.energy import EnergyProblem
 from ..beam.rotation import spatial_turn
 from ..solve.minimize import RelaxationError, minimize
 from ..solve.stability import inertia, lowest_scaled_eigenvalue
+from .fabric_rounds import MAX_ROUNDS, SNAP_ROUNDS, another_round, smallest_radius
 
 # the homotopy's first increment and the largest it grows to (relax_fabric's defaults)
 DLAM, DLAM_MAX = 0.1, 0.25
-# friction rounds an increment may take before it is halved (twice that at lam = 1)
-MAX_ROUNDS = 4
-# rounds beyond those while every round slides the swatch more than a yarn radius
-SNAP_ROUNDS = 8
 
 
 class FabricRelaxationError(RuntimeError):
@@ -195,43 +192,6 @@ class Partial:
     early: int = 0               # steps spent in rounds ended early (``reanchor``)
 
 
-def _smallest_radius(model):
-    """The thinnest yarn's radius (length), None if no rod has a finite one."""
-    radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
-    return min(radii) if radii else None
-
-
-def _contracting(ends, moves=()):
-    """The lagged friction's rounds still converge: each of the last two ended
-    with at most half the residual of the one before (rounds that run out of
-    steps), or moved the swatch at most 0.7 times as far as the one before
-    (converged rounds nearing the fixed point: on the 3 x 4 test swatch the
-    final rounds moved 1.7, 0.34, 0.082, 0.035, 0.010 r, on one thread 1.8,
-    0.97, 0.39 r, and the round budget ended them above the 1e-3 r that
-    counts as settled)."""
-    def shrinking(v, rate):
-        return len(v) >= 3 and v[-1] <= rate * v[-2] and v[-2] <= rate * v[-3] and v[-3] > 0
-    return shrinking(ends, 0.5) or shrinking(moves, 0.7)
-
-
-def _sliding(moves, arm):
-    """The last two rounds each moved the swatch more than ``arm`` (a yarn
-    radius): a slide or a snap under way, not rounds hovering at an
-    equilibrium (those move a fraction of a radius: 0.3-0.05 r on the 10 x 35)."""
-    return arm > 0 and len(moves) >= 2 and min(moves[-2:]) > arm
-
-
-def _another_round(k, ends, moves, arm, max_rounds, extra_rounds=0, snap_rounds=0):
-    """After ``k`` counted rounds (final residuals ``ends``, moves ``moves``)
-    of an increment that has not ended: does another follow?  The budget is
-    ``max_rounds``; up to ``extra_rounds`` more while the rounds contract
-    (:func:`_contracting`), up to ``snap_rounds`` more while they slide
-    (:func:`_sliding`)."""
-    return (k < max_rounds
-            or (k < max_rounds + extra_rounds and _contracting(ends, moves))
-            or (k < max_rounds + snap_rounds and _sliding(moves, arm)))
-
-
 def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=None,
                min_rounds=1, start=None, on_round=None, extra_rounds=0, reanchor=None,
                snap_rounds=0):
@@ -239,9 +199,9 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     ``min_rounds``) and moved no node more than ``creep`` (the lagged normal
     forces have settled), or ``max_rounds`` rounds of which the last
     converged; up to ``extra_rounds`` more while the rounds' final residuals
-    or their moves keep shrinking (:func:`_contracting`), up to
+    or their moves keep shrinking (:func:`~.fabric_rounds.contracting`), up to
     ``snap_rounds`` more while each moves the swatch more than a yarn radius
-    (:func:`_sliding`; see :func:`_another_round`).  With ``reanchor``
+    (:func:`~.fabric_rounds.sliding`; see :func:`~.fabric_rounds.another_round`).  With ``reanchor``
     a round may end early to anchor the contacts that formed in it
     (:func:`_contacts_formed`); such rounds do not count as rounds (nor
     in the shrinking test), and once they have spent ``max_rounds x
@@ -262,12 +222,12 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
                                        before + time.perf_counter() - t, False)
     ends = list(start.ends) if start is not None else []
     moves = list(start.moves) if start is not None else []
-    arm = _smallest_radius(model) or 0.0
+    arm = smallest_radius(model) or 0.0
     early = start.early if start is not None else 0    # steps of rounds ended early
     k = first
 
     def more():
-        return _another_round(k, ends, moves, arm, max_rounds, extra_rounds, snap_rounds)
+        return another_round(k, ends, moves, arm, max_rounds, extra_rounds, snap_rounds)
     while more():
         allow = reanchor if early < max_rounds * iterations else None
         try:
@@ -348,7 +308,7 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     """
     state = model.initial_state() if state is None else state
     if creep is None:
-        radius = _smallest_radius(model)
+        radius = smallest_radius(model)
         creep = 1e-3 * radius if radius is not None else 1e-6 * model.length_scale()
     increments = list(increments)
     lam = float(lam)

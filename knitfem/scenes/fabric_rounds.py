@@ -1,0 +1,54 @@
+"""How many friction rounds an increment of the fabric relaxation may take.
+
+The relaxation (:mod:`knitfem.scenes.fabric_relax`) solves each homotopy
+increment by rounds of lagged friction.  An increment whose rounds have not
+converged after its budget is halved -- unless its rounds show that a smaller
+increment would only come back to the same rounds: they contract towards a
+fixed point (:func:`contracting`), or each carries the swatch on by more than
+a yarn radius, a slide or a snap under way (:func:`sliding`).  These
+predicates read only the rounds' final residuals and moves (lengths, mm),
+so they are tested on recorded sequences without a model.
+"""
+import numpy as np
+
+# friction rounds an increment may take before it is halved (twice that at lam = 1)
+MAX_ROUNDS = 4
+# rounds beyond those while every round slides the swatch more than a yarn radius
+SNAP_ROUNDS = 8
+
+
+def smallest_radius(model):
+    """The thinnest yarn's radius (length), None if no rod has a finite one."""
+    radii = [r.section.radius for r in model.rods if np.isfinite(r.section.radius)]
+    return min(radii) if radii else None
+
+
+def contracting(ends, moves=()):
+    """The lagged friction's rounds still converge: each of the last two ended
+    with at most half the residual of the one before (rounds that run out of
+    steps), or moved the swatch at most 0.7 times as far as the one before
+    (converged rounds nearing the fixed point: on the 3 x 4 test swatch the
+    final rounds moved 1.7, 0.34, 0.082, 0.035, 0.010 r, on one thread 1.8,
+    0.97, 0.39 r, and the round budget ended them above the 1e-3 r that
+    counts as settled)."""
+    def shrinking(v, rate):
+        return len(v) >= 3 and v[-1] <= rate * v[-2] and v[-2] <= rate * v[-3] and v[-3] > 0
+    return shrinking(ends, 0.5) or shrinking(moves, 0.7)
+
+
+def sliding(moves, arm):
+    """The last two rounds each moved the swatch more than ``arm`` (a yarn
+    radius): a slide or a snap under way, not rounds hovering at an
+    equilibrium (those move a fraction of a radius: 0.3-0.05 r on the 10 x 35)."""
+    return arm > 0 and len(moves) >= 2 and min(moves[-2:]) > arm
+
+
+def another_round(k, ends, moves, arm, max_rounds, extra_rounds=0, snap_rounds=0):
+    """After ``k`` counted rounds (final residuals ``ends``, moves ``moves``)
+    of an increment that has not ended: does another follow?  The budget is
+    ``max_rounds``; up to ``extra_rounds`` more while the rounds contract
+    (:func:`contracting`), up to ``snap_rounds`` more while they slide
+    (:func:`sliding`)."""
+    return (k < max_rounds
+            or (k < max_rounds + extra_rounds and contracting(ends, moves))
+            or (k < max_rounds + snap_rounds and sliding(moves, arm)))
