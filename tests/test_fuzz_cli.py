@@ -47,8 +47,11 @@ class Hang(Exception):
     pass
 
 
-def run(argv, seconds=60):
-    """main(argv) with stdout / stderr captured and a watchdog (SIGALRM)."""
+def run(argv, seconds=240):
+    """main(argv) with stdout / stderr captured and a watchdog (SIGALRM).
+
+    The watchdog catches a hang, not a slow answer: a first call may compile
+    numba kernels (~1 min on a loaded 2-core machine tripped the former 60 s)."""
     def alarm(signum, frame):
         raise Hang(f"no answer in {seconds} s: {argv}")
     out, err = io.StringIO(), io.StringIO()
