@@ -6,7 +6,7 @@ from knitfem.bspline import ContactLaw, relax_dynamic, relax_newton
 from knitfem.bspline.contact import PairCache, candidate_pairs
 from knitfem.bspline.fire import relax_fire
 from knitfem.scenes.curl_bspline import bspline_curl, relax_swatch
-from knitfem.geometry.knit import swatch_ties
+from knitfem.geometry.swatch import swatch_ties
 from knitfem.scenes.swatch_bspline import bspline_swatch, prestretch
 
 ISSUE_9_KEYS = {"nw", "nc", "model", "alpha", "curl", "edges_touch", "roll_deg", "curvature_x",

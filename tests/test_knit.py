@@ -316,7 +316,7 @@ def test_tail_ties_hold_each_tail_end_or_its_last_points_by_their_two_nearest(sw
     """One tie per tail end to the other yarn's nearest point (the default);
     with ``tail_nodes`` n the last n points of each of the six tails, each
     tied to the two nearest points of the other yarn; bad counts refused."""
-    from knitfem.geometry.knit import swatch_ties
+    from knitfem.geometry.swatch import swatch_ties
     one = swatch_ties(swatch)
     assert len(one) == 6 and len(set(one)) == 6
     knit = swatch.yarns[0].points

@@ -17,7 +17,8 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import cKDTree
 
-from .knit import T1, TOUCH, YarnPath
+from .knit import T1, TOUCH
+from .swatch import YarnPath
 
 
 def helix(x0, x1, apex_x, apex_y, z_axis, R, pitch, inward, n, sag=(0.0, 0.0)):

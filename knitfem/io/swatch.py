@@ -1,4 +1,4 @@
-"""Knit swatches (:class:`knitfem.geometry.knit.Swatch`) as .vtu files and renders.
+"""Knit swatches (:class:`knitfem.geometry.swatch.Swatch`) as .vtu files and renders.
 
 One ``line`` cell per yarn segment (meshio cannot write ``polyline``).  Point
 data: ``tangent`` (unit), ``radius``, ``yarn`` and ``course`` (for colouring;

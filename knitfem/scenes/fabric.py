@@ -24,7 +24,7 @@ building it; see README "Fabric curling"):
   than a turn: a strong control of the curl, README).
 * **Tails tied in**: the knit yarn's two ends and each helix's two ends are
   tied (stiff springs at the layout distance) to the nearest point of the
-  other yarn (:func:`knitfem.geometry.knit.swatch_ties`), as a knitter weaves
+  other yarn (:func:`knitfem.geometry.swatch.swatch_ties`), as a knitter weaves
   the tails in: a free tail lets the pre-stretch drain out.  ``tail_ties`` n
   > 1 ties each tail's last n points, each to the two nearest, so it cannot
   pivot about one tie (22-25 % fewer steps on 4 x 4 and 5 x 5, 9 % on 10 x 10).
@@ -57,7 +57,7 @@ from dataclasses import MISSING, asdict, dataclass, fields, replace
 import numpy as np
 
 from ..beam import BeamModel, Rod, Section
-from ..geometry.knit import mirror_swatch, plain_knit_swatch, swatch_ties
+from ..geometry.swatch import mirror_swatch, plain_knit_swatch, swatch_ties
 
 DEFAULT_EA_OVER_EI = 800.0      # 1/mm^2: 3 % of a solid rod's 4/r^2 at r = 0.4 mm
 

@@ -1,13 +1,13 @@
 """A plain-knit swatch as a B-spline yarn model (the paper's own model, Sec. 6).
 
-Scene input is shared with the beam path (:func:`knitfem.geometry.knit.plain_knit_swatch`,
-:func:`~knitfem.geometry.knit.swatch_control_points`); the mechanics are the
+Scene input is shared with the beam path (:func:`knitfem.geometry.swatch.plain_knit_swatch`,
+:func:`~knitfem.geometry.swatch.swatch_control_points`); the mechanics are the
 B-spline model's own (:mod:`knitfem.bspline`).  Scene choices (issue 9):
 
 * the knit yarn is naturally straight; the pre-stretch alpha shrinks its
   rest length to (1 - alpha) x its knitted length (the paper's "decrease the
   natural length in the stretching energy by the length ratio alpha");
-* the tails are woven in (:func:`knitfem.geometry.knit.swatch_ties`, the
+* the tails are woven in (:func:`knitfem.geometry.swatch.swatch_ties`, the
   same ties as the beam scene): the knit yarn's ends to the nearest point of
   the bottom/top helix and each helix's ends to the nearest knit point, each
   held at its initial distance by a spring as stiff as a yarn piece that long
@@ -31,7 +31,7 @@ import numpy as np
 
 from ..bspline import BSplineModel, ContactLaw, Yarn
 from ..bspline.yarn import positive, segment_lengths
-from ..geometry.knit import plain_knit_swatch, swatch_control_points, swatch_ties
+from ..geometry.swatch import plain_knit_swatch, swatch_control_points, swatch_ties
 
 CM = 10.0                  # mm per cm
 
@@ -162,7 +162,7 @@ def bspline_swatch(n_wale, n_course, *, w=4.0, c=3.0, radius=0.4, segments_per_l
     """The B-spline model of an n_wale x n_course plain-knit swatch with bind-off
     (a :class:`BSplineSwatch`), at rest length = knitted length (alpha = 0;
     :func:`prestretch` applies alpha).  Sizes and counts as in
-    :func:`~knitfem.geometry.knit.plain_knit_swatch`; segments_per_loop: B-spline
+    :func:`~knitfem.geometry.swatch.plain_knit_swatch`; segments_per_loop: B-spline
     segments per loop length of yarn (>= 8).  knit_natural: "straight" (the
     paper's yarn) or "knitted" (the knit yarn's natural curvature and torsion
     are those of the knitted shape, so alpha = 0 is at rest: a check of the
