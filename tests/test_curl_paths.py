@@ -83,3 +83,13 @@ def test_each_path_relaxes_into_its_folder_and_a_resume_skips_finished_ones(tmp_
     assert main(argv + ["--resume"]) == 0
     assert calls[2:] == [("path_coarse", curl_paths.SCHEDULES["coarse"], True)]
     assert json.loads((tmp_path / "curl_3x4.json").read_text())["paths"] == combined["paths"]
+
+
+def test_thirds_schedule_is_the_measured_protocol_variant():
+    # the README's timing of `--paths thirds` was made with relax_protocol's variant
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
+    import relax_protocol
+    assert curl_paths.parse_paths("thirds") == ["thirds"]
+    assert curl_paths.SCHEDULES["thirds"] == relax_protocol.VARIANTS["thirds"]
