@@ -101,7 +101,7 @@ def parse(argv):
                              "Simo-Reissner beam scene")
     parser.add_argument("--paths", default=None, metavar="SCHEDULES",
                         help="beam: relax every point along these homotopy schedules "
-                             "(default, coarse, fine; as knitfem curl --paths)")
+                             "(default, coarse, fine, thirds; as knitfem curl --paths)")
     parser.add_argument("--bindoff-prestretch", action="store_true", default=None,
                         help="beam: the bind-off's rest length shrinks with the knit's")
     parser.add_argument("--adopt", nargs="+", default=None, metavar="RUN.json",
