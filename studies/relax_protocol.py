@@ -28,13 +28,14 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
 
 from knitfem.analysis.curl import swatch_curl  # noqa: E402
 from knitfem.io import write_json  # noqa: E402
+from knitfem.scenes.curl_paths import SCHEDULES  # noqa: E402
 from knitfem.scenes.fabric import FabricScene, Homotopy, build  # noqa: E402
 from knitfem.scenes.fabric_relax import FabricRelaxationError, relax_fabric  # noqa: E402
 
 VARIANTS = {
     "default": {},
     "rounds60": {"iterations": 60, "max_rounds": 8},
-    "thirds": {"dlam": 0.34, "dlam_max": 0.5},
+    "thirds": dict(SCHEDULES["thirds"]),      # knitfem curl --paths thirds
     "one": {"dlam": 1.0, "dlam_max": 1.0, "iterations": 60, "max_rounds": 8},
     "reanchor20": {"reanchor": 0.2},
 }

@@ -86,7 +86,7 @@ def test_each_path_relaxes_into_its_folder_and_a_resume_skips_finished_ones(tmp_
 
 
 def test_thirds_schedule_is_the_measured_protocol_variant():
-    # the README's timing of `--paths thirds` was made with relax_protocol's variant
+    # the README times `--paths thirds` with relax_protocol's variant: one schedule, not two copies
     import sys
     from pathlib import Path
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))

@@ -201,9 +201,8 @@ def add_parser(subparsers):
                    "start (anchor: the code before 2026-12-02)")
     p.add_argument("--paths", default=None, metavar="SCHEDULES",
                    help="beam: relax along each of these homotopy schedules (comma-separated: "
-                   "default, coarse, fine, thirds) into --out/path_<name>/ and report every "
-                   "answer; "
-                   "the swatch's curl is the lowest-energy converged, stable one's, "
+                   "default, coarse, fine, thirds) into --out/path_<name>/ and report "
+                   "every answer; the swatch's curl is the lowest-energy converged, stable one's, "
                    "curl_types the set (a knit held by friction can land on more than one)")
     p.add_argument("--bindoff-prestretch", action="store_true",
                    help="beam: the bind-off helices' rest length shrinks by --alpha with the "

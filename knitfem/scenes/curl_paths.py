@@ -22,9 +22,9 @@ SCHEDULES = {
     "default": {"dlam": DLAM, "dlam_max": DLAM_MAX},
     "coarse": {"dlam": 0.3, "dlam_max": 0.5},
     "fine": {"dlam": 0.05, "dlam_max": 0.1},
-    # studies/relax_protocol.py's "thirds": at (10, 35), alpha 0.2, half the
-    # default's iterations for the same curl (README, "Bigger increments with
-    # the depth guard")
+    # measured by studies/relax_protocol.py (its "thirds"): at (10, 35), alpha
+    # 0.2, half the default's iterations for the same curl (README, "Bigger
+    # increments with the depth guard")
     "thirds": {"dlam": 0.34, "dlam_max": 0.5},
 }
 
