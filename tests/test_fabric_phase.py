@@ -120,6 +120,53 @@ def test_a_beam_point_along_several_paths_reports_the_set_of_curls(tmp_path, mon
     assert json.loads((point / "curl.json").read_text())["path_dependent"] is True
 
 
+def test_a_killed_beam_point_resumes_from_its_checkpoint(tmp_path, monkeypatch):
+    """On a local executor a beam point relaxes in the sweep's lasting
+    ``work/<key>/`` folder: killed there (an interruption after its first
+    checkpoint), the same sweep with ``resume`` hands curl() that folder
+    again with ``resume=True``, so it continues; the folder goes once the
+    point is stored, and a sweep started afresh removes a killed one's.
+    (Here a stand-in for curl(); a real checkpoint's resume: test_fabric.)"""
+    import json
+    from knitfem.scenes import curl as beam_curl
+    calls = []
+
+    def killed(scene, *, out, resume=False, **kw):
+        calls.append((Path(out), resume))
+        (Path(out) / "checkpoint.npz").write_text("lam 0.5")
+        raise KeyboardInterrupt
+
+    def resumed(scene, *, out, resume=False, **kw):
+        calls.append((Path(out), resume))
+        calls[-1] += ((Path(out) / "checkpoint.npz").read_text(),)
+        summary = {"nw": scene.nw, "nc": scene.nc, "curl": "double", "converged": True,
+                   "stable": True, "error": None,
+                   "roll_deg": {k: 0.0 for k in ("left", "right", "top", "bottom")}}
+        (Path(out) / "curl_3x4.json").write_text(json.dumps(summary))
+        (Path(out) / "curl_3x4.vtu").write_text("relaxed")
+        return summary
+    monkeypatch.setattr(beam_curl, "curl", killed)
+    with pytest.raises(KeyboardInterrupt):
+        phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False)
+    work = calls[0][0]
+    assert work.parent == tmp_path / "work" and calls[0][1] is True
+    assert (work / "checkpoint.npz").is_file() and not records(tmp_path)
+    monkeypatch.setattr(beam_curl, "curl", resumed)
+    rows, sweep = phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False,
+                              resume=True)
+    assert calls[1] == (work, True, "lam 0.5")
+    assert sweep.complete and rows[0]["curl"] == "double" and not work.parent.exists()
+    point = next(p for p in (tmp_path / "points").iterdir() if p.is_dir())
+    assert (point / "curl.vtu").read_text() == "relaxed"
+    monkeypatch.setattr(beam_curl, "curl", killed)          # killed again, then afresh
+    with pytest.raises(KeyboardInterrupt):
+        phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False)
+    monkeypatch.setattr(beam_curl, "curl", resumed)
+    rows, sweep = phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False)
+    assert "FileNotFoundError" in rows[0]["error"] and calls[3] == (work, True)  # none handed on
+    assert not work.exists()                  # a failed point does not keep its folder
+
+
 def test_options_of_the_other_model_are_refused(tmp_path):
     with pytest.raises(ValueError, match=r"\['friction'\] do not apply to model 'bspline'"):
         curl_point({"nw": 3, "nc": 4, "curl": {"friction": 0.3}}, tmp_path)

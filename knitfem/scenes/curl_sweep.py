@@ -21,6 +21,7 @@ Each point of the sweep (:mod:`knitfem.sweep`) is one curl relaxation,
 (:data:`COLUMNS`), failed and unfinished points included with their
 message and no shape.  Units: mm, degrees, seconds.
 """
+import contextlib
 from pathlib import Path
 import shutil
 import tempfile
@@ -68,24 +69,32 @@ def _bspline(nw, nc, options, out_dir):
                         name="curl", **options)
 
 
-def _beam(nw, nc, options, out_dir):
+def _beam(nw, nc, options, out_dir, work_dir=None):
     from .curl import curl
     from .fabric import FabricScene
     from .fabric_relax import FabricRelaxationError
     options = _options(options, BEAM_OPTIONS, "beam")
     paths = options.pop("paths", None)
     scene = FabricScene(nw, nc, **options)
-    with tempfile.TemporaryDirectory(prefix="knitfem-beam-") as tmp:
+    # in the sweep's lasting folder the relaxation checkpoints, and a killed
+    # point resumes from there (engine docstring); else in a temporary one
+    with contextlib.ExitStack() as stack:
+        if work_dir is None:
+            tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="knitfem-beam-"))
+        else:
+            tmp = Path(work_dir)
+            tmp.mkdir(parents=True, exist_ok=True)
         try:
             if paths is None:
-                summary = curl(scene, out=tmp, render=False, progress=False)
+                summary = curl(scene, out=tmp, render=False, progress=False, resume=True)
             else:
                 from .curl_paths import curl_paths, parse_paths
                 names = parse_paths(paths)
                 if names is None:
                     raise ValueError(f"curl option paths: unknown or repeated schedule in "
                                      f"{paths!r}")
-                summary = curl_paths(scene, names, out=tmp, render=False, progress=False)
+                summary = curl_paths(scene, names, out=tmp, render=False, progress=False,
+                                     resume=True)
         except FabricRelaxationError as err:
             raise CurlFailed(f"FabricRelaxationError: {err}") from None
         if summary.get("error") is not None:       # the last state of a failed relaxation
@@ -100,13 +109,14 @@ def _beam(nw, nc, options, out_dir):
     return summary
 
 
-def curl_point(params, out_dir):
+def curl_point(params, out_dir, work_dir=None):
     """Sweep task: relax the ``params["nw"]`` x ``params["nc"]`` swatch with
     ``params["model"]`` ("bspline" or "beam") and the curl options
     ``params["curl"]`` (dict, keys :data:`BSPLINE_OPTIONS` / :data:`BEAM_OPTIONS`);
     writes ``curl.vtu`` (the relaxed yarns), ``curl.json`` (the model's full
     summary) and, B-spline, ``curl_control.npy`` (its control points) into
-    ``out_dir``.  Returns the curl, the signed edge rolls (deg), curvatures (1/mm), centre height H (mm) and H/W, relaxed loop aspect w/c,
+    ``out_dir``; a beam relaxation checkpoints into ``work_dir`` when given (a
+    folder that outlives a killed sweep: it resumes from there).  Returns the curl, the signed edge rolls (deg), curvatures (1/mm), centre height H (mm) and H/W, relaxed loop aspect w/c,
     converged / residual / stable and the relaxation's message.  Raises
     :class:`CurlFailed` when the beam relaxation fails (the sweep records the
     point as failed)."""
@@ -114,8 +124,10 @@ def curl_point(params, out_dir):
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     nw, nc = params["nw"], params["nc"]
-    run = _bspline if model == "bspline" else _beam
-    return point_result(nw, nc, model, run(nw, nc, dict(params.get("curl", {})), out_dir))
+    options = dict(params.get("curl", {}))
+    summary = (_bspline(nw, nc, options, out_dir) if model == "bspline" else
+               _beam(nw, nc, options, out_dir, work_dir))
+    return point_result(nw, nc, model, summary)
 
 
 def point_result(nw, nc, model, summary):

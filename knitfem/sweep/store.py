@@ -27,6 +27,7 @@ from ..io.atomic import OutputError, check_folder_writable, write_bytes, write_j
 
 MANIFEST = "sweep.json"
 POINTS = "points"
+WORK = "work"
 
 
 def _text(value):
@@ -55,6 +56,7 @@ class SweepStore:
         self.out = Path(out)
         self.option = option
         self.points_dir = self.out / POINTS
+        self.work_dir = self.out / WORK        # tasks' lasting folders (engine docstring)
         check_folder_writable(self.out, option)
 
     def manifest(self):
@@ -87,6 +89,8 @@ class SweepStore:
                     done[key] = record
         elif self.points_dir.exists():
             shutil.rmtree(self.points_dir)
+        if not resume and self.work_dir.exists():
+            shutil.rmtree(self.work_dir)
         self.points_dir.mkdir(parents=True, exist_ok=True)
         # who writes here: adopting a run into a folder a live sweep writes is refused
         self.header = {"task": task, "constants": constants, "axes": list(points[0]) if points
