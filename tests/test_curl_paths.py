@@ -65,7 +65,8 @@ def test_each_path_relaxes_into_its_folder_and_a_resume_skips_finished_ones(tmp_
         calls.append((out.name, relax_options, resume))
         summary = {**_summary("double" if out.name == "path_coarse" else "top_bottom",
                               {"path_default": 2.0, "path_coarse": 1.0}[out.name]),
-                   "nw": scene.nw, "nc": scene.nc, "friction_settled": True}
+                   "nw": scene.nw, "nc": scene.nc, "friction_settled": True,
+                   "scene": scene.as_dict(), "protocol": relax_options}
         out.mkdir(parents=True, exist_ok=True)
         (out / f"curl_{scene.nw}x{scene.nc}.json").write_text(json.dumps(summary))
         return summary
@@ -83,6 +84,17 @@ def test_each_path_relaxes_into_its_folder_and_a_resume_skips_finished_ones(tmp_
     assert main(argv + ["--resume"]) == 0
     assert calls[2:] == [("path_coarse", curl_paths.SCHEDULES["coarse"], True)]
     assert json.loads((tmp_path / "curl_3x4.json").read_text())["paths"] == combined["paths"]
+    # a finished path of another scene is refused, as a checkpoint is (not mixed in)
+    done = tmp_path / "path_default" / "curl_3x4.json"
+    other = json.loads(done.read_text())
+    done.write_text(json.dumps({**other, "scene": {**other["scene"], "alpha": 0.1}}))
+    with pytest.raises(ValueError, match="path_default.*other parameters"):
+        curl_paths.curl_paths(FabricScene(3, 4), ["default", "coarse"], out=tmp_path,
+                              render=False, progress=False, resume=True)
+    done.write_text(json.dumps({**other, "protocol": curl_paths.SCHEDULES["coarse"]}))
+    with pytest.raises(ValueError, match="protocol"):
+        curl_paths.curl_paths(FabricScene(3, 4), ["default"], out=tmp_path,
+                              render=False, progress=False, resume=True)
 
 
 def test_thirds_schedule_is_the_measured_protocol_variant():

@@ -158,13 +158,22 @@ def test_a_killed_beam_point_resumes_from_its_checkpoint(tmp_path, monkeypatch):
     assert sweep.complete and rows[0]["curl"] == "double" and not work.parent.exists()
     point = next(p for p in (tmp_path / "points").iterdir() if p.is_dir())
     assert (point / "curl.vtu").read_text() == "relaxed"
+    (work / "path").mkdir(parents=True)       # as if killed before its removal: a done
+    phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False, resume=True)
+    assert not work.exists() and len(calls) == 2          # point's folder goes on resume
     monkeypatch.setattr(beam_curl, "curl", killed)          # killed again, then afresh
     with pytest.raises(KeyboardInterrupt):
         phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False)
     monkeypatch.setattr(beam_curl, "curl", resumed)
     rows, sweep = phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False)
     assert "FileNotFoundError" in rows[0]["error"] and calls[3] == (work, True)  # none handed on
-    assert not work.exists()                  # a failed point does not keep its folder
+    # a failed point keeps its folder (run again, it would continue from there)
+    assert work.is_dir() and not (work / "checkpoint.npz").exists()
+    from knitfem.io.atomic import OutputError
+    stray = tmp_path / "elsewhere"
+    (stray / "work").mkdir(parents=True)      # a folder that is not a sweep's is not cleared
+    with pytest.raises(OutputError, match="not a knitfem sweep folder"):
+        phase_sweep([3], [4], stray, model="beam", workers=0, progress=False)
 
 
 def test_options_of_the_other_model_are_refused(tmp_path):

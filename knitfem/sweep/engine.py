@@ -17,7 +17,8 @@ A task that takes a ``work_dir`` keyword gets, on a local pool or in this
 process, a folder that outlives a killed sweep: ``OUT/work/<key>/``, for its
 own checkpoints, so ``--resume`` continues a point where it was killed
 instead of starting it again (a 25 x 35 beam relaxation takes longer than
-many a session lasts).  It is removed once the point is stored, and with
+many a session lasts).  It is removed once the point is done (a failed
+point keeps it: run again, it continues from its last checkpoint), and with
 the sweep's points when a sweep starts without ``--resume``.  On a Dask
 cluster (no shared file system) ``work_dir`` is None.
 """
@@ -75,6 +76,9 @@ def execute(task, params, work_dir=None):
             json.dumps(result, allow_nan=False)
             outcome = {"status": "done", "result": result, "error": None}
         except Exception as err:                       # the point fails, the sweep goes on
+            from ..interrupt import interruption
+            if interruption(err) is not None:          # a signal seen inside numba code
+                raise
             outcome = {"status": "failed", "result": None,
                        "error": f"{type(err).__name__}: {err}"}
         outcome["elapsed_s"] = time.perf_counter() - t0
@@ -168,7 +172,7 @@ def _run(task, points, out, constants, resume, workers, scheduler, progress, des
             params = dict(todo)
             for key, (outcome, files) in runner.run(jobs):
                 record = store.save({"key": key, "params": params[key], **outcome}, files)
-                if work is not None:
+                if work is not None and outcome["status"] == "done":
                     shutil.rmtree(work / key, ignore_errors=True)
                 records[key] = record
                 if bar is not None:

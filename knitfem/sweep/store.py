@@ -73,9 +73,11 @@ class SweepStore:
         of points already done (key -> record).  Without ``resume`` the
         points of a previous sweep in this folder are removed first."""
         old = self.manifest()
-        if self.points_dir.exists() and old is None:
-            raise OutputError(f"{self.option} {self.out}: {self.points_dir} exists but no "
-                              f"{MANIFEST}: not a knitfem sweep folder, refusing to overwrite it")
+        for folder in (self.points_dir, self.work_dir):
+            if folder.exists() and old is None:
+                raise OutputError(f"{self.option} {self.out}: {folder} exists but no "
+                                  f"{MANIFEST}: not a knitfem sweep folder, refusing to "
+                                  "overwrite it")
         done = {}
         if resume and old is not None:
             if old.get("task") != task or not _same(old.get("constants"), constants):
@@ -89,8 +91,12 @@ class SweepStore:
                     done[key] = record
         elif self.points_dir.exists():
             shutil.rmtree(self.points_dir)
-        if not resume and self.work_dir.exists():
-            shutil.rmtree(self.work_dir)
+        if self.work_dir.exists():
+            # a fresh sweep starts every point afresh; a resumed one needs no
+            # folders of points already done (killed before their removal)
+            for folder in ([self.work_dir] if not resume else
+                           [self.work_dir / k for k in done if (self.work_dir / k).exists()]):
+                shutil.rmtree(folder)
         self.points_dir.mkdir(parents=True, exist_ok=True)
         # who writes here: adopting a run into a folder a live sweep writes is refused
         self.header = {"task": task, "constants": constants, "axes": list(points[0]) if points
