@@ -106,6 +106,25 @@ def resumed_protocol(kept, given, lam):
     return record
 
 
+def check_same_run(path, saved_scene, saved_protocol, scene, protocol):
+    """ValueError unless what ``path`` holds (a checkpoint, or a finished
+    path's summary) was run with ``scene`` and the path part of ``protocol``."""
+    saved, given = saved_scene.as_dict(), scene.as_dict()
+    if json.dumps(saved, sort_keys=True) != json.dumps(given, sort_keys=True):
+        differ = ", ".join(f"{k}: checkpoint {saved[k]!r}, given {given[k]!r}"
+                           for k in sorted(saved) if saved[k] != given[k])
+        raise ValueError(f"--resume: {path} holds a run with other parameters ({differ}); "
+                         "remove it or give the same options")
+    # the protocol decides the path, and with it the answer (README, --reanchor);
+    # a round budget may change (recorded: resumed_protocol)
+    kept = _path_protocol(saved_protocol)
+    if json.dumps(kept, sort_keys=True) != json.dumps(_path_protocol(protocol),
+                                                      sort_keys=True):
+        raise ValueError(f"--resume: {path} holds a run with another relaxation protocol "
+                         f"(checkpoint {kept}, given {protocol or {}}); remove it or give the "
+                         "same options")
+
+
 def load_checkpoint(path, scene, model, protocol=None):
     """(state, lam, dlam, increments, partial) from a checkpoint of the same
     scene and relaxation ``protocol`` (options; a checkpoint from before they
@@ -117,20 +136,7 @@ def load_checkpoint(path, scene, model, protocol=None):
     if not path.exists():
         return None
     data = np.load(path)
-    saved, given = checkpoint_scene(data).as_dict(), scene.as_dict()
-    if json.dumps(saved, sort_keys=True) != json.dumps(given, sort_keys=True):
-        differ = ", ".join(f"{k}: checkpoint {saved[k]!r}, given {given[k]!r}"
-                           for k in sorted(saved) if saved[k] != given[k])
-        raise ValueError(f"--resume: {path} holds a run with other parameters ({differ}); "
-                         "remove it or give the same options")
-    # the protocol decides the path, and with it the answer (README, --reanchor);
-    # a round budget may change (recorded: resumed_protocol)
-    kept = _path_protocol(checkpoint_protocol(data))
-    if json.dumps(kept, sort_keys=True) != json.dumps(_path_protocol(protocol),
-                                                      sort_keys=True):
-        raise ValueError(f"--resume: {path} holds a run with another relaxation protocol "
-                         f"(checkpoint {kept}, given {protocol or {}}); remove it or give the "
-                         "same options")
+    check_same_run(path, checkpoint_scene(data), checkpoint_protocol(data), scene, protocol)
 
     def friction(prefix):
         if prefix + "anchor_key" not in data.files:

@@ -79,20 +79,6 @@ def combine(summaries, names):
     return base
 
 
-def _same_run(summary, scene, options, path):
-    """``summary`` if it was relaxed with ``scene`` and the path options of
-    ``options`` (as a checkpoint is checked on ``--resume``), else ValueError."""
-    from .curl import _path_protocol
-    from .fabric import FabricScene
-    saved = FabricScene.stored(summary.get("scene") or {}).as_dict()
-    kept, given = _path_protocol(summary.get("protocol")), _path_protocol(options)
-    if saved != scene.as_dict() or kept != given:
-        raise ValueError(f"--resume: {path} holds a path relaxed with other parameters "
-                         f"or protocol (scene {saved}, protocol {kept}; given "
-                         f"{scene.as_dict()}, {given}); remove it or give the same options")
-    return summary
-
-
 def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=False,
                relax_options=None):
     """Relax ``scene`` along each schedule of ``names`` (keys of
@@ -101,7 +87,8 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
     continues each; a path whose summary is already there is not rerun, and one of
     another scene or protocol is refused like a checkpoint) and
     the combined summary goes to ``out/curl_<nw>x<nc>.json``."""
-    from .curl import curl
+    from .curl import check_same_run, curl
+    from .fabric import FabricScene
     out = Path(out) if out is not None else None
     summaries = []
     for name in names:
@@ -109,7 +96,11 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
         done = folder / f"curl_{scene.nw}x{scene.nc}.json" if folder is not None else None
         options = {**SCHEDULES[name], **(relax_options or {})}
         if resume and done is not None and done.exists():
-            summaries.append(_same_run(json.loads(done.read_text()), scene, options, done))
+            # refused like a checkpoint when run otherwise (not mixed in)
+            finished = json.loads(done.read_text())
+            check_same_run(done, FabricScene.stored(finished.get("scene") or {}),
+                           finished.get("protocol"), scene, options)
+            summaries.append(finished)
             continue
         summaries.append(curl(scene, out=folder, render=render, progress=progress,
                               resume=resume, relax_options=options))

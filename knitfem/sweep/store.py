@@ -91,12 +91,12 @@ class SweepStore:
                     done[key] = record
         elif self.points_dir.exists():
             shutil.rmtree(self.points_dir)
-        if self.work_dir.exists():
-            # a fresh sweep starts every point afresh; a resumed one needs no
-            # folders of points already done (killed before their removal)
-            for folder in ([self.work_dir] if not resume else
-                           [self.work_dir / k for k in done if (self.work_dir / k).exists()]):
-                shutil.rmtree(folder)
+        # a fresh sweep starts every point afresh; a resumed one needs no
+        # folders of points already done (killed before their removal)
+        if not resume:
+            shutil.rmtree(self.work_dir, ignore_errors=True)
+        for key in done:
+            shutil.rmtree(self.work_dir / key, ignore_errors=True)
         self.points_dir.mkdir(parents=True, exist_ok=True)
         # who writes here: adopting a run into a folder a live sweep writes is refused
         self.header = {"task": task, "constants": constants, "axes": list(points[0]) if points
