@@ -205,10 +205,19 @@ def test_a_killed_and_resumed_run_ends_where_an_uninterrupted_one_does(relaxed_3
     assert len(whole) == summary["increments"] >= 2 and len(within) >= 2
     blob = whole[-2] if when == "after an increment" else within[-1]
     (tmp_path / "checkpoint.npz").write_bytes(blob)
+    # the path the killed run had written
+    import io
+    import shutil
+    done = int(sum(r[6] for r in np.load(io.BytesIO(blob))["increments"]))
+    (tmp_path / "path").mkdir()
+    for k in range(1, done + 1):
+        shutil.copy(out / "path" / f"step_{k:03d}.vtu", tmp_path / "path")
     resumed = curl(SCENE, out=tmp_path, render=False, progress=False, resume=True,
                    relax_options=RELAX)
     assert resumed["converged"] and resumed["increments"] == summary["increments"]
     assert resumed["iterations"] == summary["iterations"]
+    # path.pvd lists the whole path, the steps before the kill included
+    assert (tmp_path / "path" / "path.pvd").read_text() == (out / "path" / "path.pvd").read_text()
     a = _points(out / "curl_3x4.vtu")
     b = _points(tmp_path / "curl_3x4.vtu")
     assert np.abs(a - b).max() <= 1e-6 * SCENE.radius

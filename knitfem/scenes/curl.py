@@ -69,7 +69,7 @@ def checkpoint_scene(data):
 
 # relaxation options a resume may change: budgets, which decide only what an
 # increment that has used up the old one does next (the change is recorded)
-BUDGETS = ("max_rounds", "snap_rounds")
+BUDGETS = ("max_rounds", "snap_rounds", "settle")
 # a budget's value where a protocol does not name it, when that is not
 # relax_fabric's default (None): checkpoints name their snap rounds
 BUDGET_DEFAULTS = {"snap_rounds": SNAP_ROUNDS}
@@ -220,6 +220,11 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     kwargs = {}
     if start is not None:
         state, lam, dlam, done, partial = start
+        # the path written before the resume stays in path.pvd (step k is
+        # the k-th accepted increment's equilibrium)
+        steps = ((out / "path" / f"step_{k:03d}.vtu", inc.lam)
+                 for k, inc in enumerate((inc for inc in done if inc.accepted), 1))
+        frames.extend((f, t) for f, t in steps if f.exists())
         kwargs = dict(state=state, lam=lam, dlam=dlam, partial=partial, increments=done)
         homotopy.apply(lam)
     failure = None

@@ -5,7 +5,8 @@
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
                  [--bindoff-prestretch] [--tail-ties 1] [--paths default,coarse]
-                 [--reanchor SHARE] [--max-rounds 4] [--snap-rounds 8] [--out DIR]
+                 [--reanchor SHARE] [--max-rounds 4] [--snap-rounds 8] [--settle N]
+                 [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model (beam): ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
@@ -161,6 +162,11 @@ OPTIONS = OptionSet(
             "beyond --max-rounds while each slides the swatch more than a yarn radius (a snap "
             "under way, which a halved increment would come back to; default 8, 0: halve at "
             "once as before 2026-12-05). A resume may change it (recorded like a --max-rounds change)"),
+    Integer("--settle", None, "[0, 20]", when=("model", "beam", "the bspline "
+            "relaxation has no friction rounds"), help="beam: up to this many more passes of "
+            "the final increment's friction rounds (its budget each) while the friction has "
+            "not settled (default 0). With --resume on a finished run whose friction did not "
+            "settle, they are all that runs (recorded like a --max-rounds change)"),
     Check(_yarn_fits),
     RESUME,
     Check(_beam_only_flags),
@@ -237,6 +243,8 @@ def run(args):
                 protocol["max_rounds"] = args.max_rounds
             if args.snap_rounds is not None and args.snap_rounds != SNAP_ROUNDS:
                 protocol["snap_rounds"] = args.snap_rounds
+            if args.settle:
+                protocol["settle"] = args.settle
             protocol = protocol or None
             if args.paths is not None:
                 from .curl_paths import curl_paths, parse_paths
@@ -256,7 +264,8 @@ def run(args):
         # an equilibrium, but for the last round's lagged friction anchors
         print(f"knitfem curl: the friction did not settle: its last round moved the swatch by "
               f"{summary['last_round_move_over_r']:.3g} yarn radii (rounds budget spent); "
-              f"another round would move the answer", file=sys.stderr)
+              f"another round would move the answer (--resume --settle N runs up to N more "
+              f"passes of its rounds)", file=sys.stderr)
     if failed and args.quiet:            # quiet hides the progress, never a failure
         print(f"knitfem curl: {verdict}, converged {summary['converged']}", file=sys.stderr)
     return 3 if failed else 0

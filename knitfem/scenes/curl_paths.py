@@ -100,8 +100,10 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
             finished = json.loads(done.read_text())
             check_same_run(done, FabricScene.stored(finished.get("scene") or {}),
                            finished.get("protocol"), scene, options)
-            summaries.append(finished)
-            continue
+            # a path whose friction did not settle goes on when asked (--settle)
+            if not (options.get("settle") and finished.get("friction_settled") is False):
+                summaries.append(finished)
+                continue
         summaries.append(curl(scene, out=folder, render=render, progress=progress,
                               resume=resume, relax_options=options))
     summary = combine(summaries, names)

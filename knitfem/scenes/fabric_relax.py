@@ -52,7 +52,8 @@ from ..beam.energy import EnergyProblem
 from ..beam.rotation import spatial_turn
 from ..solve.minimize import RelaxationError, minimize
 from ..solve.stability import inertia, lowest_scaled_eigenvalue
-from .fabric_rounds import MAX_ROUNDS, SNAP_ROUNDS, another_round, smallest_radius
+from .fabric_rounds import (MAX_ROUNDS, SNAP_ROUNDS, another_round, settle_pass_due,
+                            smallest_radius)
 
 # the homotopy's first increment and the largest it grows to (relax_fabric's defaults)
 DLAM, DLAM_MAX = 0.1, 0.25
@@ -282,7 +283,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=DLAM,
                  dlam_max=DLAM_MAX, dlam_min=1e-3, iterations=200, max_rounds=MAX_ROUNDS, creep=None,
                  progress=None, checkpoint=None, partial=None, increments=(), reanchor=None,
-                 snap_rounds=SNAP_ROUNDS):
+                 snap_rounds=SNAP_ROUNDS, settle=0):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
     to lam = 1 (see the module docstring).
 
@@ -304,7 +305,12 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     at its start (:func:`_contacts_formed`; see :func:`_increment` for how
     such rounds are counted).  snap_rounds : rounds an increment may take
     beyond ``max_rounds`` while each slides the swatch more than a yarn radius
-    (0: none; the protocol before 2026-12-05).  Returns :class:`FabricEquilibrium`.
+    (0: none; the protocol before 2026-12-05).  settle : up to this many more
+    passes of the final increment's rounds (each with its budget, re-anchored
+    at the answer) while its friction has not settled; entered at lam = 1
+    (a finished run's checkpoint) they are the only work done.  A pass that
+    ends without a converged round leaves the answer before it (unsettled),
+    its work recorded as a failed attempt.  Returns :class:`FabricEquilibrium`.
     """
     state = model.initial_state() if state is None else state
     if creep is None:
@@ -317,10 +323,12 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     # failed increment must retry from the last equilibrium's anchors, not
     # from those its failed rounds left behind
     saved = contact.friction_state() if contact is not None else None
-    while lam < 1.0:
+    while lam < 1.0 or partial is not None or settle_pass_due(increments, creep, settle):
         # snap: ten increments of 0.1 sum to 0.9999999999999999, which would
         # leave a round-off increment solved to path_tol before the last one
         target = 1.0 if lam + dlam > 1.0 - 1e-9 else lam + dlam
+        # a settle pass: the final increment's rounds again, from its answer
+        polish = lam >= 1.0
         if partial is not None:
             target = partial.target
             if contact is not None:
@@ -335,13 +343,18 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
         result, inc, *attempt = _increment(model, state, target, tol if last else path_tol,
                                            iterations, 2 * max_rounds if last else max_rounds,
                                            creep if last else np.inf, progress,
-                                           2 if last else 1, partial, on_round,
+                                           2 if last and not polish else 1, partial, on_round,
                                            2 * max_rounds if last else 0, reanchor,
                                            snap_rounds)
         partial = None
         if result is None:
             # the failed attempt's work counts (iterations, time), not its path
             increments.extend(attempt)
+            if polish:
+                # the answer stands, for its own anchors; unsettled, as reported
+                if contact is not None:
+                    contact.restore_friction(saved)
+                break
             dlam = 0.5 * (target - lam)
             homotopy.apply(lam)
             if contact is not None:

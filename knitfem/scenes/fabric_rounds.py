@@ -52,3 +52,14 @@ def another_round(k, ends, moves, arm, max_rounds, extra_rounds=0, snap_rounds=0
     return (k < max_rounds
             or (k < max_rounds + extra_rounds and contracting(ends, moves))
             or (k < max_rounds + snap_rounds and sliding(moves, arm)))
+
+
+def settle_pass_due(increments, creep, settle):
+    """At lam = 1, does another pass of the final increment's friction rounds
+    follow?  Yes while the last accepted lam-1 increment ended on its round
+    budget with its last round moving more than ``creep`` (the friction not
+    settled) and fewer than ``settle`` passes have run beyond the first
+    (``increments``: the :class:`~.fabric_relax.Increment` records)."""
+    final = [inc for inc in increments if inc.accepted and inc.lam == 1.0]
+    return (bool(final) and len(final) - 1 < settle and np.isfinite(final[-1].moved)
+            and final[-1].moved > creep)
