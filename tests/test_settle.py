@@ -1,21 +1,25 @@
 """Settle passes: more friction rounds at lam = 1 for an answer whose lagged
 friction did not settle (``relax_fabric(settle=N)``, ``knitfem curl --settle``).
 
-The rounds are scripted (each moves every node by a given length and ends at
-a given residual), so these test the control logic alone."""
+The rounds are scripted (each re-anchors the friction as a real round does,
+then moves every node by a given length and ends at a given residual), so
+these test the control logic alone."""
 import json
 
 import numpy as np
 import pytest
 
+from knitfem.scenes import curl as curl_module
 from knitfem.scenes import fabric_relax
 from knitfem.scenes.fabric import FabricScene, Homotopy, build
-from knitfem.scenes.fabric_rounds import settle_pass_due
+from knitfem.scenes.fabric_rounds import settle_pass_due, settle_passes
+
+SCENE = FabricScene(3, 3, elements_per_loop=16)
 
 
 @pytest.fixture(scope="module")
 def small():
-    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
+    model, _, _ = build(SCENE)
     return model
 
 
@@ -31,6 +35,7 @@ def _rounds(monkeypatch, moves, residuals=None, calls=None):
     def scripted(model, state, lam, tol, iterations, progress=None, reanchor=None):
         if calls is not None:
             calls.append(lam)
+        model.contact_model.anchor_friction(state.x, state.q)     # as _round does
         r = model.rods[0].section.radius
         result = Result()
         result.state = type(state)(state.x + next(moves) * r, state.q.copy())
@@ -53,11 +58,19 @@ def _final(eq):
     return [inc for inc in eq.increments if inc.accepted and inc.lam == 1.0]
 
 
+def _saver(path, model):
+    """A relax_fabric checkpoint writing ``path`` as ``knitfem curl`` does."""
+    def checkpoint(state, lam, dlam, increments, partial):
+        curl_module._save_checkpoint(path, SCENE, state, lam, dlam, increments,
+                                     model.contact_model, partial)
+    return checkpoint
+
+
 def test_a_settle_pass_continues_a_finished_unsettled_answer(small, monkeypatch):
     """Entered at lam = 1 with an unsettled final increment, ``settle`` runs
     its rounds again from the answer until one converged round moves nothing
-    (one round is enough there: the anchors are the answer's); without it a
-    finished run runs no round at all."""
+    (a pass may end after one round: its anchors are the answer's); without
+    it a finished run runs no round at all."""
     first = _unsettled_answer(small, monkeypatch)
     calls = []
     _rounds(monkeypatch, [], calls=calls)
@@ -70,9 +83,14 @@ def test_a_settle_pass_continues_a_finished_unsettled_answer(small, monkeypatch)
     assert calls == [1.0, 1.0]
     assert eq.friction_settled is True and eq.last_round_move == 0.0
     assert [inc.iterations for inc in _final(eq)] == [8, 2]
-    assert eq.iterations == 10
+    assert eq.iterations == 10 and settle_passes(eq.increments) == 1
     r = small.rods[0].section.radius
     assert np.allclose(eq.state.x, first.state.x + 0.2 * r)
+    calls.clear()
+    _rounds(monkeypatch, [0.0], calls=calls)      # settled in the pass's first round
+    eq = fabric_relax.relax_fabric(small, Homotopy(small, 0.05), first.state, lam=1.0,
+                                   increments=first.increments, settle=3)
+    assert calls == [1.0] and eq.friction_settled is True
 
 
 def test_settle_passes_stop_at_their_number_also_across_resumes(small, monkeypatch):
@@ -90,46 +108,70 @@ def test_settle_passes_stop_at_their_number_also_across_resumes(small, monkeypat
     assert calls == [] and len(_final(eq)) == 3
 
 
-def test_a_settle_pass_without_a_converged_round_leaves_the_answer(small, monkeypatch):
+def test_a_failed_settle_pass_leaves_the_answer_and_is_not_repeated(small, monkeypatch,
+                                                                     tmp_path):
     """A pass whose rounds never converge neither raises nor halves anything:
     the answer before it stands, unsettled (its last round's move), with the
-    pass's work recorded as a failed attempt."""
+    answer's friction anchors (not the failed rounds'), the pass recorded as
+    a failed attempt -- also in the checkpoint, which holds no partial
+    increment, so a resume with the same ``settle`` runs nothing more."""
     first = _unsettled_answer(small, monkeypatch)
-    _rounds(monkeypatch, [3.0] * 100, residuals=[1.0] * 100)
     contact = small.contact_model
     anchors = contact.friction_state()
+    path = tmp_path / "checkpoint.npz"
+    _rounds(monkeypatch, [3.0] * 100, residuals=[1.0] * 100)
     eq = fabric_relax.relax_fabric(small, Homotopy(small, 0.05), first.state, lam=1.0,
-                                   increments=first.increments, settle=1)
+                                   increments=first.increments, settle=1,
+                                   checkpoint=_saver(path, small))
     assert np.array_equal(eq.state.x, first.state.x)
-    assert eq.converged and eq.friction_settled is False
+    assert eq.friction_settled is False
     assert eq.last_round_move == pytest.approx(0.5 * small.rods[0].section.radius)
     assert [inc.accepted for inc in eq.increments] == [True, False]
     assert eq.increments[-1].iterations > 0
-    # the answer's friction anchors, not those the failed rounds left behind
     assert contact.friction_state()[0] is anchors[0]
+    state, lam, dlam, done, partial = curl_module.load_checkpoint(path, SCENE, small)
+    assert partial is None and lam == 1.0 and np.array_equal(state.x, first.state.x)
+    assert [inc.accepted for inc in done] == [True, False]
+    calls = []
+    _rounds(monkeypatch, [3.0] * 100, residuals=[1.0] * 100, calls=calls)
+    again = fabric_relax.relax_fabric(small, Homotopy(small, 0.05), state, lam=lam,
+                                      dlam=dlam, increments=done, settle=1)
+    assert calls == [] and again.iterations == eq.iterations
 
 
-def test_a_settle_pass_killed_half_way_resumes_from_its_partial(small, monkeypatch):
+@pytest.mark.parametrize("settle", [1, 0])
+def test_a_settle_pass_killed_half_way_resumes_from_its_checkpoint(small, monkeypatch,
+                                                                    tmp_path, settle):
     """A settle pass checkpoints after each round like any increment: its
-    partial (target 1, at lam 1) is continued on resume, not dropped because
-    lam is already 1."""
+    partial (target 1, at lam 1) comes back from the checkpoint and is
+    continued on resume -- also when the resume asks for no more passes (the
+    pass under way finishes) -- not dropped because lam is already 1."""
     first = _unsettled_answer(small, monkeypatch)
-    partials = []
-
-    def checkpoint(state, lam, dlam, increments, partial):
-        if partial is not None:
-            partials.append(partial)
     _rounds(monkeypatch, [0.4, 0.3, 0.0])
     whole = fabric_relax.relax_fabric(small, Homotopy(small, 0.05), first.state, lam=1.0,
-                                      increments=first.increments, settle=1,
-                                      checkpoint=checkpoint)
+                                      increments=first.increments, settle=1)
     assert whole.friction_settled is True and _final(whole)[-1].iterations == 3
-    killed = partials[1]        # after two rounds
-    assert killed.target == 1.0 and killed.rounds == 2
+    path = tmp_path / "checkpoint.npz"
+    saver = _saver(path, small)
+    kills = []
+
+    def killed_after_two_rounds(state, lam, dlam, increments, partial):
+        saver(state, lam, dlam, increments, partial)
+        if partial is not None and partial.rounds == 2:
+            kills.append(partial)
+            raise KeyboardInterrupt
+    _rounds(monkeypatch, [0.4, 0.3, 0.0])
+    with pytest.raises(KeyboardInterrupt):
+        fabric_relax.relax_fabric(small, Homotopy(small, 0.05), first.state, lam=1.0,
+                                  increments=first.increments, settle=1,
+                                  checkpoint=killed_after_two_rounds)
+    state, lam, dlam, done, partial = curl_module.load_checkpoint(path, SCENE, small)
+    assert lam == 1.0 and partial is not None and partial.target == 1.0 and partial.rounds == 2
     calls = []
     _rounds(monkeypatch, [0.0], calls=calls)
-    resumed = fabric_relax.relax_fabric(small, Homotopy(small, 0.05), killed.state, lam=1.0,
-                                        increments=first.increments, partial=killed, settle=1)
+    resumed = fabric_relax.relax_fabric(small, Homotopy(small, 0.05), state, lam=lam,
+                                        dlam=dlam, increments=done, partial=partial,
+                                        settle=settle)
     assert calls == [1.0]
     assert resumed.friction_settled is True and _final(resumed)[-1].iterations == 3
     assert np.allclose(resumed.state.x, whole.state.x)
@@ -143,7 +185,10 @@ def test_settle_pass_due_reads_the_last_accepted_final_increment():
     assert settle_pass_due([unsettled], 1e-3, 1)
     assert not settle_pass_due([unsettled], 1e-3, 0)
     assert not settle_pass_due([unsettled, settled], 1e-3, 5)
-    assert settle_pass_due([unsettled, failed], 1e-3, 1)       # a failed attempt is no pass
+    # a failed pass counts as one; failed attempts before lam 1 was reached do not
+    assert not settle_pass_due([unsettled, failed], 1e-3, 1)
+    assert settle_pass_due([unsettled, failed], 1e-3, 2)
+    assert settle_passes([failed, unsettled]) == 0 and settle_passes([unsettled, failed]) == 1
     assert not settle_pass_due([unsettled, unsettled], 1e-3, 1)
     assert not settle_pass_due([inc(0.5, 8, 1e-9, 0.0, 0.0, 1.0, True, 0.5)], 1e-3, 1)
     # an older checkpoint without the move: unknown, no pass
@@ -153,11 +198,11 @@ def test_settle_pass_due_reads_the_last_accepted_final_increment():
 def test_curl_paths_goes_on_with_a_finished_unsettled_path_only_when_asked(tmp_path,
                                                                             monkeypatch):
     """``--paths ... --resume --settle N``: a finished path whose friction did
-    not settle is run again (resumed, so only its settle passes run); one that
-    settled, or any without --settle, is kept as it is."""
-    from knitfem.scenes import curl as curl_module
+    not settle, with fewer than N passes run, is resumed from its checkpoint
+    (so only its passes run); one that settled, that has run its N passes,
+    or any without --settle, is kept as it is -- and so is one whose
+    checkpoint is gone (with a warning: it would be relaxed from nothing)."""
     from knitfem.scenes import curl_paths as paths_module
-    scene = FabricScene(3, 3, elements_per_loop=16)
     ran = []
 
     def stand_in(scene_, *, out, resume, relax_options, **kwargs):
@@ -166,15 +211,25 @@ def test_curl_paths_goes_on_with_a_finished_unsettled_path_only_when_asked(tmp_p
                 "friction_settled": True, "scene": scene_.as_dict(),
                 "protocol": relax_options}
     monkeypatch.setattr(curl_module, "curl", stand_in)
-    for name, settled in (("default", False), ("thirds", True)):
+    names = ["default", "thirds", "fine"]
+    for name, settled, passes in (("default", False, 0), ("thirds", True, 0),
+                                  ("fine", False, 2)):
         folder = tmp_path / f"path_{name}"
         folder.mkdir()
+        (folder / "checkpoint.npz").write_bytes(b"")
         (folder / "curl_3x3.json").write_text(json.dumps(
             {"curl": "double", "converged": True, "stable": True, "energy": 1.0,
-             "friction_settled": settled, "scene": scene.as_dict(),
+             "friction_settled": settled, "settle_passes": passes, "scene": SCENE.as_dict(),
              "protocol": dict(paths_module.SCHEDULES[name])}))
-    paths_module.curl_paths(scene, ["default", "thirds"], out=tmp_path, resume=True)
+    paths_module.curl_paths(SCENE, names, out=tmp_path, resume=True)
     assert ran == []
-    paths_module.curl_paths(scene, ["default", "thirds"], out=tmp_path, resume=True,
-                            relax_options={"settle": 2})
+    summary = paths_module.curl_paths(SCENE, names, out=tmp_path, resume=True,
+                                      relax_options={"settle": 2})
     assert ran == [("path_default", True, 2)]
+    assert [r["settle_passes"] for r in summary["paths"]] == [None, 0, 2]
+    ran.clear()
+    (tmp_path / "path_default" / "checkpoint.npz").unlink()
+    with pytest.warns(UserWarning, match="path_default has no checkpoint"):
+        paths_module.curl_paths(SCENE, names, out=tmp_path, resume=True,
+                                relax_options={"settle": 2})
+    assert ran == []

@@ -24,6 +24,7 @@ import numpy as np
 
 from .fabric import FabricScene, Homotopy, build, yarn_axial_strain
 from .fabric_relax import FabricRelaxationError, relax_fabric
+from .fabric_rounds import settle_passes
 from .fabric_rounds import SNAP_ROUNDS
 
 VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
@@ -205,13 +206,17 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
             bar.set_postfix_str(f"lam={lam:.3f} it={it} res={res:.1e}", refresh=True)
 
     frames = []
+    # accepted increments whose step is written (a failed settle pass is
+    # checkpointed too, with no new step)
+    written = [sum(inc.accepted for inc in start[3]) if start is not None else 0]
 
     def on_increment(state, lam, dlam, increments, partial=None):
         if out is None:
             return
-        if partial is None:
+        step = sum(inc.accepted for inc in increments)
+        if partial is None and step > written[0]:
             from ..io import write_beam_state
-            step = sum(inc.accepted for inc in increments)
+            written[0] = step
             frames.append((write_beam_state(out / "path" / f"step_{step:03d}.vtu",
                                             model, state), lam))
         _save_checkpoint(checkpoint_path, scene, state, lam, dlam, increments,
@@ -274,6 +279,8 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         "last_round_move_over_r": (eq.last_round_move / scene.radius
                                    if failure is None and np.isfinite(eq.last_round_move)
                                    else None),
+        # passes of the final increment's rounds run for the friction to settle (--settle)
+        "settle_passes": settle_passes(eq.increments),
         "dofs": info["free_dofs"], "iterations": eq.iterations,
         "increments": sum(inc.accepted for inc in eq.increments),
         "failed_increments": sum(not inc.accepted for inc in eq.increments),

@@ -264,8 +264,9 @@ def run(args):
         # an equilibrium, but for the last round's lagged friction anchors
         print(f"knitfem curl: the friction did not settle: its last round moved the swatch by "
               f"{summary['last_round_move_over_r']:.3g} yarn radii (rounds budget spent); "
-              f"another round would move the answer (--resume --settle N runs up to N more "
-              f"passes of its rounds)", file=sys.stderr)
+              f"another round would move the answer (--resume --settle N runs more passes of "
+              f"its rounds, up to N in all: {summary.get('settle_passes', 0)} run so far)",
+              file=sys.stderr)
     if failed and args.quiet:            # quiet hides the progress, never a failure
         print(f"knitfem curl: {verdict}, converged {summary['converged']}", file=sys.stderr)
     return 3 if failed else 0

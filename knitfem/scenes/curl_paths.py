@@ -13,6 +13,7 @@ minimum; the potential includes the last friction round's, which is ~0 when
 the friction settled).
 """
 import json
+import warnings
 from pathlib import Path
 
 from .fabric_relax import DLAM, DLAM_MAX
@@ -30,8 +31,8 @@ SCHEDULES = {
 
 # what each path's record keeps of its run's summary (the rest is in its folder)
 KEPT = ("curl", "edges_touch", "roll_deg", "curvature_x", "curvature_y", "energy",
-        "converged", "residual", "stable", "friction_settled", "iterations", "relax_s",
-        "error")
+        "converged", "residual", "stable", "friction_settled", "settle_passes", "iterations",
+        "relax_s", "error")
 
 
 def parse_paths(text):
@@ -79,6 +80,20 @@ def combine(summaries, names):
     return base
 
 
+def _settle_due(finished, options, folder):
+    """A finished path whose friction did not settle goes on (resumed from its
+    checkpoint) when ``options`` ask for more settle passes than it has run;
+    without its checkpoint it is kept as it is, with a warning (rerun from
+    nothing it would not be the same path)."""
+    due = (finished.get("friction_settled") is False
+           and finished.get("settle_passes", 0) < (options.get("settle") or 0))
+    if due and not (folder / "checkpoint.npz").exists():
+        warnings.warn(f"--settle: {folder} has no checkpoint to continue; its answer is kept "
+                      "unsettled", stacklevel=3)
+        return False
+    return due
+
+
 def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=False,
                relax_options=None):
     """Relax ``scene`` along each schedule of ``names`` (keys of
@@ -100,8 +115,7 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
             finished = json.loads(done.read_text())
             check_same_run(done, FabricScene.stored(finished.get("scene") or {}),
                            finished.get("protocol"), scene, options)
-            # a path whose friction did not settle goes on when asked (--settle)
-            if not (options.get("settle") and finished.get("friction_settled") is False):
+            if not _settle_due(finished, options, folder):
                 summaries.append(finished)
                 continue
         summaries.append(curl(scene, out=folder, render=render, progress=progress,

@@ -352,8 +352,12 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
             increments.extend(attempt)
             if polish:
                 # the answer stands, for its own anchors; unsettled, as reported
+                # (checkpointed with the failed pass: a resume neither repeats
+                # the pass nor loses its work)
                 if contact is not None:
                     contact.restore_friction(saved)
+                if checkpoint is not None:
+                    checkpoint(state, lam, dlam, increments, None)
                 break
             dlam = 0.5 * (target - lam)
             homotopy.apply(lam)

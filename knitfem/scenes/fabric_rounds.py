@@ -54,12 +54,20 @@ def another_round(k, ends, moves, arm, max_rounds, extra_rounds=0, snap_rounds=0
             or (k < max_rounds + snap_rounds and sliding(moves, arm)))
 
 
+def settle_passes(increments):
+    """Settle passes run so far: the increments at lam = 1 recorded after the
+    first accepted one, failed passes included (``increments``: the
+    :class:`~.fabric_relax.Increment` records)."""
+    final = [i for i, inc in enumerate(increments) if inc.lam == 1.0 and inc.accepted]
+    return sum(inc.lam == 1.0 for inc in increments[final[0] + 1:]) if final else 0
+
+
 def settle_pass_due(increments, creep, settle):
     """At lam = 1, does another pass of the final increment's friction rounds
     follow?  Yes while the last accepted lam-1 increment ended on its round
     budget with its last round moving more than ``creep`` (the friction not
-    settled) and fewer than ``settle`` passes have run beyond the first
-    (``increments``: the :class:`~.fabric_relax.Increment` records)."""
+    settled) and fewer than ``settle`` passes have run (:func:`settle_passes`;
+    a failed pass counts: with the same budget it would fail again)."""
     final = [inc for inc in increments if inc.accepted and inc.lam == 1.0]
-    return (bool(final) and len(final) - 1 < settle and np.isfinite(final[-1].moved)
-            and final[-1].moved > creep)
+    return (bool(final) and settle_passes(increments) < settle
+            and np.isfinite(final[-1].moved) and final[-1].moved > creep)
