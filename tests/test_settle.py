@@ -233,3 +233,10 @@ def test_curl_paths_goes_on_with_a_finished_unsettled_path_only_when_asked(tmp_p
         paths_module.curl_paths(SCENE, names, out=tmp_path, resume=True,
                                 relax_options={"settle": 2})
     assert ran == []
+
+
+def test_settle_passes_get_their_own_times_in_the_path_series():
+    """path.pvd's time is the homotopy lam; ParaView lists one dataset per
+    time, so the k-th settle pass (again at lam 1) is at time 1 + k."""
+    assert curl_module.frame_times([0.1, 0.55, 1.0, 1.0, 1.0]) == [0.1, 0.55, 1.0, 2.0, 3.0]
+    assert curl_module.frame_times([0.5, 1.0]) == [0.5, 1.0]

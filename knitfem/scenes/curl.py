@@ -305,7 +305,8 @@ def _write_outputs(out, model, eq, summary, frames, render):
     name = f"curl_{summary['nw']}x{summary['nc']}"
     write_beam_state(out / f"{name}.vtu", model, eq.state)
     if frames:
-        write_series(out / "path" / "path.pvd", [f for f, _ in frames], [t for _, t in frames])
+        write_series(out / "path" / "path.pvd", [f for f, _ in frames],
+                     frame_times([t for _, t in frames]))
     if render:
         from ..io import beam_mesh
         title = f"{summary['nw']} x {summary['nc']}: " + (
@@ -315,6 +316,16 @@ def _write_outputs(out, model, eq, summary, frames, render):
                      beam_mesh(model, eq.state), min(r.section.radius for r in model.rods),
                      title)
     (out / f"{name}.json").write_text(json.dumps(summary, indent=2))
+
+
+def frame_times(lams):
+    """The path's times in path.pvd: homotopy lam, and 1 + k for the k-th
+    settle pass at lam = 1 (ParaView lists one dataset per time)."""
+    times, passes = [], 0
+    for lam in lams:
+        passes += bool(times) and lam == 1.0 and times[-1] >= 1.0
+        times.append(lam + passes)
+    return times
 
 
 def render_views(paths, mesh, radius, title):
