@@ -24,8 +24,7 @@ import numpy as np
 
 from .fabric import FabricScene, Homotopy, build, yarn_axial_strain
 from .fabric_relax import FabricRelaxationError, relax_fabric
-from .fabric_rounds import settle_passes
-from .fabric_rounds import SNAP_ROUNDS
+from .fabric_rounds import SNAP_ROUNDS, settle_passes
 
 VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
 

@@ -310,7 +310,8 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     at the answer) while its friction has not settled; entered at lam = 1
     (a finished run's checkpoint) they are the only work done.  A pass that
     ends without a converged round leaves the answer before it (unsettled),
-    its work recorded as a failed attempt.  Returns :class:`FabricEquilibrium`.
+    its work recorded as a failed attempt; it counts as a pass
+    (:func:`~.fabric_rounds.settle_passes`).  Returns :class:`FabricEquilibrium`.
     """
     state = model.initial_state() if state is None else state
     if creep is None:
