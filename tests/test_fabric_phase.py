@@ -331,3 +331,16 @@ def test_rows_of_points_that_did_not_run_say_so():
     row = curl_sweep.phase_rows(Sweep, "bspline")[0]
     assert row["status"] == "not run" and row["curl"] is None and row["model"] == "bspline"
     assert point_state(row) == "failed"
+
+
+def test_the_study_hands_its_relaxation_options_to_the_points():
+    """``fabric_phase.py --model beam --max-rounds 12 --settle 2 ...`` puts them
+    in the per-point curl options (before, the parser took them and the
+    points never saw them)."""
+    module = load_study()
+    args = module.parse(["--out", "x", "--model", "beam", "--nw", "5", "--nc", "5",
+                         "--max-rounds", "12", "--snap-rounds", "3", "--settle", "2",
+                         "--reanchor", "0.2"])
+    options = module.curl_options(args)
+    assert {k: options[k] for k in ("max_rounds", "snap_rounds", "settle", "reanchor")} == \
+        {"max_rounds": 12, "snap_rounds": 3, "settle": 2, "reanchor": 0.2}

@@ -125,3 +125,42 @@ def test_adopting_into_a_running_sweep_is_refused(tmp_path):
         other.kill()
         other.wait()
     assert adopt_run(out, run)["status"] == "done"          # killed: adopted
+
+
+def test_a_run_is_adopted_only_with_the_sweeps_relaxation_options(tmp_path):
+    """A sweep run with relaxation options (--max-rounds, --settle, ...) takes
+    runs made with the same ones, and refuses a run made with the defaults,
+    or one whose budget changed on a resume (another path)."""
+    out = sweep_folder(tmp_path / "sweep", options={**OPTIONS, "max_rounds": 12, "settle": 2})
+    same = finished_run(tmp_path / "same", protocol={"max_rounds": 12, "settle": 2})
+    assert adopt_run(out, same)["status"] == "done"
+    for name, protocol in (("default", None),
+                           ("changed", {"max_rounds": 12, "settle": 2, "budget_changes": [
+                               {"lam": 0.8, "option": "max_rounds", "from": None, "to": 12}]})):
+        with pytest.raises(ValueError, match=r"the sweep's points with \{'max_rounds': 12, "
+                                             r"'settle': 2\}"):
+            adopt_run(out, finished_run(tmp_path / name, protocol=protocol), replace=True)
+    # a sweep at the defaults (max_rounds 4 named or not) takes a default run
+    out = sweep_folder(tmp_path / "plain", options={**OPTIONS, "max_rounds": 4})
+    assert adopt_run(out, finished_run(tmp_path / "plain_run"))["status"] == "done"
+
+
+def test_the_sweeps_relaxation_options_reach_every_points_relaxation(tmp_path, monkeypatch):
+    """--reanchor, --max-rounds, --snap-rounds and --settle of the phase study
+    go to each point's relaxation (they were parsed and dropped before), the
+    defaults as none."""
+    seen = []
+
+    def relaxed(scene, *, out, relax_options=None, **kw):
+        seen.append(relax_options)
+        summary = {"nw": scene.nw, "nc": scene.nc, "curl": "double", "converged": True,
+                   "stable": True, "error": None, "roll_deg": ROLLS}
+        (out / f"curl_{scene.nw}x{scene.nc}.json").write_text(json.dumps(summary))
+        (out / f"curl_{scene.nw}x{scene.nc}.vtu").write_text("relaxed")
+        return summary
+    monkeypatch.setattr(beam_curl, "curl", relaxed)
+    phase_sweep([3], [4], tmp_path / "a", model="beam", workers=0, progress=False,
+                options={"max_rounds": 12, "settle": 2, "reanchor": 0.2, "snap_rounds": 8})
+    phase_sweep([3], [4], tmp_path / "b", model="beam", workers=0, progress=False,
+                options={"max_rounds": 4})
+    assert seen == [{"reanchor": 0.2, "max_rounds": 12, "settle": 2}, None]

@@ -217,6 +217,25 @@ def add_parser(subparsers):
     return add_output_options(p, "folder: relaxation path, final .vtu, renders, checkpoint")
 
 
+# the options that go to the relaxation (relax_fabric keywords), not the scene
+PROTOCOL = ("reanchor", "max_rounds", "snap_rounds", "settle")
+
+
+def relax_protocol(reanchor=None, max_rounds=None, snap_rounds=None, settle=None):
+    """The relaxation options of a beam run (:data:`PROTOCOL`), those at their
+    default left out; None when none is left (a run with the defaults names no
+    protocol, and its checkpoints and summary say so)."""
+    from .fabric_rounds import MAX_ROUNDS, SNAP_ROUNDS
+    protocol = {"reanchor": reanchor} if reanchor is not None else {}
+    if max_rounds is not None and max_rounds != MAX_ROUNDS:
+        protocol["max_rounds"] = max_rounds
+    if snap_rounds is not None and snap_rounds != SNAP_ROUNDS:
+        protocol["snap_rounds"] = snap_rounds
+    if settle:
+        protocol["settle"] = settle
+    return protocol or None
+
+
 def run(args):
     """Run the validated ``curl`` command; exit code 0, or 3 when the relaxation failed
     or did not converge (the summary, saying so, is still written)."""
@@ -237,15 +256,7 @@ def run(args):
                                 tail_ties=args.tail_ties,
                                 corotated_friction=(args.friction_frame or "corotated")
                                 == "corotated")
-            protocol = {"reanchor": args.reanchor} if args.reanchor is not None else {}
-            from .fabric_rounds import MAX_ROUNDS, SNAP_ROUNDS
-            if args.max_rounds is not None and args.max_rounds != MAX_ROUNDS:
-                protocol["max_rounds"] = args.max_rounds
-            if args.snap_rounds is not None and args.snap_rounds != SNAP_ROUNDS:
-                protocol["snap_rounds"] = args.snap_rounds
-            if args.settle:
-                protocol["settle"] = args.settle
-            protocol = protocol or None
+            protocol = relax_protocol(**{k: getattr(args, k) for k in PROTOCOL})
             if args.paths is not None:
                 from .curl_paths import curl_paths, parse_paths
                 summary = curl_paths(scene, parse_paths(args.paths), out=args.out,

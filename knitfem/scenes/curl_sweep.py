@@ -38,12 +38,12 @@ BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_st
                    "ea_over_ei", "max_time", "max_steps", "method", "rtol")
 BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiffness",
                 "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch",
-                "tail_ties", "paths")
+                "tail_ties", "paths", "reanchor", "max_rounds", "snap_rounds", "settle")
 # what a point keeps of the model's summary (the rest is in its JSON file)
 KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "local_roll_deg", "height",
         "height_over_width", "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",
         "iterations", "max_penetration_over_d", "directions_as_paper", "friction_settled",
-        "curl_types", "path_dependent", "chosen_path")
+        "curl_types", "path_dependent", "chosen_path", "settle_passes")
 
 
 class CurlFailed(RuntimeError):
@@ -74,7 +74,11 @@ def _beam(nw, nc, options, out_dir, work_dir=None):
     from .fabric import FabricScene
     from .fabric_relax import FabricRelaxationError
     options = _options(options, BEAM_OPTIONS, "beam")
+    from .curl_command import PROTOCOL, relax_protocol
     paths = options.pop("paths", None)
+    # the relaxation's options (a point's checkpoint goes once it is stored,
+    # so its settle passes, --settle, run now or never)
+    relax = relax_protocol(**{k: options.pop(k) for k in PROTOCOL if k in options})
     scene = FabricScene(nw, nc, **options)
     # in the sweep's lasting folder the relaxation checkpoints, and a killed
     # point resumes from there (engine docstring); else in a temporary one
@@ -86,7 +90,8 @@ def _beam(nw, nc, options, out_dir, work_dir=None):
             tmp.mkdir(parents=True, exist_ok=True)
         try:
             if paths is None:
-                summary = curl(scene, out=tmp, render=False, progress=False, resume=True)
+                summary = curl(scene, out=tmp, render=False, progress=False, resume=True,
+                               relax_options=relax)
             else:
                 from .curl_paths import curl_paths, parse_paths
                 names = parse_paths(paths)
@@ -94,7 +99,7 @@ def _beam(nw, nc, options, out_dir, work_dir=None):
                     raise ValueError(f"curl option paths: unknown or repeated schedule in "
                                      f"{paths!r}")
                 summary = curl_paths(scene, names, out=tmp, render=False, progress=False,
-                                     resume=True)
+                                     resume=True, relax_options=relax)
         except FabricRelaxationError as err:
             raise CurlFailed(f"FabricRelaxationError: {err}") from None
         if summary.get("error") is not None:       # the last state of a failed relaxation
@@ -145,8 +150,8 @@ def adopt_run(out, summary_path, nw_values=None, nc_values=None, replace=False):
 
     Refused (ValueError naming what differs) unless ``out`` holds a sweep of
     :func:`curl_point` (its ``sweep.json``) that is not running, the run
-    relaxed to a classified equilibrium with the default relaxation (no
-    ``protocol`` options: the sweep's points use none), its scene equals the
+    relaxed to a classified equilibrium with the sweep's relaxation options
+    (its ``protocol``, usually none, equal to the sweep's), its scene equals the
     sweep's field by field (:meth:`FabricScene.stored`: a field the run
     predates as it behaved then), (nw, nc) is on the grid when ``nw_values``
     / ``nc_values`` are given, and the point is not done already (unless
@@ -167,10 +172,14 @@ def adopt_run(out, summary_path, nw_values=None, nc_values=None, replace=False):
     if summary.get("error") is not None or summary.get("curl") is None or not vtu.is_file():
         raise ValueError(f"adopt {path}: not a relaxed swatch with its .vtu "
                          f"(error {summary.get('error')!r}, curl {summary.get('curl')!r})")
-    if summary.get("protocol"):
-        raise ValueError(f"adopt {path}: relaxed with protocol options {summary['protocol']} "
-                         "(--paths / --reanchor); the sweep's points use the default")
+    from .curl_command import PROTOCOL, relax_protocol
     options = dict(constants.get("curl", {}))
+    wanted = relax_protocol(**{k: options.pop(k) for k in PROTOCOL if k in options}) or {}
+    if (summary.get("protocol") or {}) != wanted:
+        raise ValueError(f"adopt {path}: relaxed with the protocol options "
+                         f"{summary.get('protocol') or {}}, the sweep's points with {wanted} "
+                         "(--reanchor, --max-rounds, --snap-rounds, --settle; a budget changed "
+                         "on a resume counts too)")
     if options.pop("paths", None) is not None:
         raise ValueError(f"adopt {path}: the sweep relaxes each point along several paths; "
                          "a single run is not such a point")
