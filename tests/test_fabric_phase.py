@@ -344,3 +344,14 @@ def test_the_study_hands_its_relaxation_options_to_the_points():
     options = module.curl_options(args)
     assert {k: options[k] for k in ("max_rounds", "snap_rounds", "settle", "reanchor")} == \
         {"max_rounds": 12, "snap_rounds": 3, "settle": 2, "reanchor": 0.2}
+
+
+def test_every_curl_option_the_study_takes_reaches_some_model():
+    """No option is parsed and dropped: each ``knitfem curl`` value option the
+    phase study accepts is a per-point option of the beam or the B-spline model."""
+    from knitfem.options import Real
+    from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS
+    module = load_study()
+    keys = {spec.flag.lstrip("-").replace("-", "_") for spec in module.OPTIONS.specs
+            if isinstance(spec, Real)}
+    assert keys and not keys - set(BEAM_OPTIONS) - set(BSPLINE_OPTIONS)
