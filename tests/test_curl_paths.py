@@ -105,3 +105,32 @@ def test_thirds_schedule_is_the_measured_protocol_variant():
     import relax_protocol
     assert curl_paths.parse_paths("thirds") == ["thirds"]
     assert curl_paths.SCHEDULES["thirds"] == relax_protocol.VARIANTS["thirds"]
+
+
+def test_a_failed_path_goes_on_from_its_checkpoint_on_resume(tmp_path, monkeypatch):
+    """A path whose relaxation failed leaves a summary (its error, its last
+    equilibrium's shape): a resume -- typically with a larger --max-rounds --
+    continues it from its checkpoint instead of taking the failure as its
+    answer; a path that ended on an answer is kept."""
+    from knitfem.scenes import curl as curl_module
+    calls = []
+
+    def fake_curl(scene, *, out, render, progress, resume, relax_options):
+        calls.append((out.name, resume, relax_options.get("max_rounds")))
+        return {**_summary("double", 1.0), "scene": scene.as_dict(),
+                "protocol": relax_options}
+    monkeypatch.setattr(curl_module, "curl", fake_curl)
+    scene = FabricScene(3, 4)
+    for name, error in (("default", "relaxation failed near homotopy lam = 0.8"),
+                        ("coarse", None)):
+        folder = tmp_path / f"path_{name}"
+        folder.mkdir()
+        (folder / "curl_3x4.json").write_text(json.dumps(
+            {**_summary(None if error else "double", 1.0), "error": error,
+             "converged": error is None, "scene": scene.as_dict(),
+             "protocol": curl_paths.SCHEDULES[name]}))
+    summary = curl_paths.curl_paths(scene, ["default", "coarse"], out=tmp_path, render=False,
+                                    progress=False, resume=True,
+                                    relax_options={"max_rounds": 12})
+    assert calls == [("path_default", True, 12)]
+    assert [r["curl"] for r in summary["paths"]] == ["double", "double"]

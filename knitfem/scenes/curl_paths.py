@@ -99,7 +99,8 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
     """Relax ``scene`` along each schedule of ``names`` (keys of
     :data:`SCHEDULES`) and return :func:`combine`'s summary.  With ``out``
     each path writes into ``out/path_<name>/`` (its own checkpoint: ``resume``
-    continues each; a path whose summary is already there is not rerun, and one of
+    continues each; a path whose answer is already there is not rerun -- unless
+    it failed, or settle passes are due (:func:`_settle_due`) -- and one of
     another scene or protocol is refused like a checkpoint) and
     the combined summary goes to ``out/curl_<nw>x<nc>.json``."""
     from .curl import check_same_run, curl
@@ -115,7 +116,9 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
             finished = json.loads(done.read_text())
             check_same_run(done, FabricScene.stored(finished.get("scene") or {}),
                            finished.get("protocol"), scene, options)
-            if not _settle_due(finished, options, folder):
+            # a failed path goes on from its checkpoint (a resume may have
+            # raised its round budget: README, "A snap near lam 0.8")
+            if finished.get("error") is None and not _settle_due(finished, options, folder):
                 summaries.append(finished)
                 continue
         summaries.append(curl(scene, out=folder, render=render, progress=progress,
