@@ -8,7 +8,9 @@ sensitivity to alpha or to the loop aspect (issue 9, must-show 2).
 
 Runs ``knitfem curl --<vary> <value>`` once per value (one process each, one thread,
 ``--no-render``), each in ``OUT/<vary>=<value>/``; ``--resume`` keeps the finished values
-and resumes an interrupted one from its checkpoint.  Writes ``OUT/table.md`` (one row per
+and resumes an interrupted one from its checkpoint (a finished value relaxed with other
+``knitfem curl`` options is refused, not mixed into the table; one whose friction did not
+settle goes on when ``-- --settle N`` asks for passes).  Writes ``OUT/table.md`` (one row per
 value: curl, rolls, curvatures, residual, stability, friction settled, reaction, path
 penetration, iterations, relaxation time) and ``OUT/sensitivity.png`` (the four edge rolls
 against the value).  For ``elements-per-loop`` the issue's criterion — the two finest
@@ -34,14 +36,40 @@ VARY = {"elements-per-loop": int, "alpha": float, "w": float, "c": float, "radiu
 ROLL_TOLERANCE_DEG = 5.0          # the issue's criterion between the two finest levels
 
 
+def finished_level(summary, cmd):
+    """The answer already in ``summary`` (a path) if it was relaxed with the
+    scene and relaxation options of ``cmd`` (a ``knitfem curl`` command line),
+    and None when settle passes it asks for are due; SystemExit naming what
+    differs otherwise (kept, it would put another swatch's row in the table)."""
+    from knitfem.cli import build_parser
+    from knitfem.scenes.curl import check_same_run
+    from knitfem.scenes.curl_command import PROTOCOL, relax_protocol, scene_of
+    from knitfem.scenes.fabric import FabricScene
+    parsed = build_parser().parse_args(cmd[3:])
+    finished = json.loads(summary.read_text())
+    try:
+        parsed.options.validate(parsed)           # fills in the defaults
+        check_same_run(summary, FabricScene.stored(finished.get("scene") or {}),
+                       finished.get("protocol"), scene_of(parsed),
+                       relax_protocol(**{k: getattr(parsed, k) for k in PROTOCOL}))
+    except ValueError as err:
+        raise SystemExit(f"fabric_sensitivity: {err}") from None
+    settle_due = (finished.get("friction_settled") is False
+                  and finished.get("settle_passes", 0) < (parsed.settle or 0)
+                  and (summary.parent / "checkpoint.npz").exists())
+    return None if settle_due else finished
+
+
 def run_level(args, level, extra):
     folder = args.out / f"{args.vary}={level}"
     summary = folder / f"curl_{args.nw}x{args.nc}.json"
-    if args.resume and summary.exists():
-        return json.loads(summary.read_text())
     cmd = [sys.executable, "-m", "knitfem", "curl", "--nw", str(args.nw), "--nc", str(args.nc),
            f"--{args.vary}", str(level), "--no-render",
            "--no-limits", "--quiet", "--out", str(folder), *extra]
+    if args.resume and summary.exists():
+        finished = finished_level(summary, cmd)
+        if finished is not None:
+            return finished
     if args.resume and (folder / "checkpoint.npz").exists():
         cmd.append("--resume")
     env = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1",

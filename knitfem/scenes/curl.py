@@ -17,7 +17,6 @@ atomically) from which ``resume`` continues after a kill.
 import json
 import os
 import time
-from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -336,9 +335,3 @@ def render_views(paths, mesh, radius, title):
                     title=f"{title} ({view})",
                     camera_up=(0, 1, 0) if view == "front" else (0, 0, 1))
 
-
-def scene_from_options(args):
-    """A :class:`FabricScene` from parsed CLI options (None = the default)."""
-    names = {f.name for f in fields(FabricScene)}
-    given = {k: v for k, v in vars(args).items() if k in names and v is not None}
-    return FabricScene(**given)

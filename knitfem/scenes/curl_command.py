@@ -236,6 +236,18 @@ def relax_protocol(reanchor=None, max_rounds=None, snap_rounds=None, settle=None
     return protocol or None
 
 
+def scene_of(args):
+    """The beam :class:`~.fabric.FabricScene` of parsed ``curl`` options."""
+    from .fabric import FabricScene
+    return FabricScene(args.nw, args.nc, w=args.w, c=args.c, radius=args.radius,
+                       elements_per_loop=args.elements_per_loop, alpha=args.alpha,
+                       ea_over_ei=args.ea_over_ei, gj_over_ei=args.gj_over_ei,
+                       bindoff_stiffness=args.bindoff_stiffness, friction=args.friction,
+                       inflation=args.inflation, bindoff_prestretch=args.bindoff_prestretch,
+                       tail_ties=args.tail_ties,
+                       corotated_friction=(args.friction_frame or "corotated") == "corotated")
+
+
 def run(args):
     """Run the validated ``curl`` command; exit code 0, or 3 when the relaxation failed
     or did not converge (the summary, saying so, is still written)."""
@@ -246,16 +258,7 @@ def run(args):
             summary = bspline_curl_from_options(args)
         else:
             from .curl import curl
-            from .fabric import FabricScene
-            scene = FabricScene(args.nw, args.nc, w=args.w, c=args.c, radius=args.radius,
-                                elements_per_loop=args.elements_per_loop, alpha=args.alpha,
-                                ea_over_ei=args.ea_over_ei, gj_over_ei=args.gj_over_ei,
-                                bindoff_stiffness=args.bindoff_stiffness,
-                                friction=args.friction, inflation=args.inflation,
-                                bindoff_prestretch=args.bindoff_prestretch,
-                                tail_ties=args.tail_ties,
-                                corotated_friction=(args.friction_frame or "corotated")
-                                == "corotated")
+            scene = scene_of(args)
             protocol = relax_protocol(**{k: getattr(args, k) for k in PROTOCOL})
             if args.paths is not None:
                 from .curl_paths import curl_paths, parse_paths
