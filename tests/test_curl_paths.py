@@ -97,11 +97,14 @@ def test_each_path_relaxes_into_its_folder_and_a_resume_skips_finished_ones(tmp_
                               render=False, progress=False, resume=True)
 
 
-def test_thirds_schedule_is_the_measured_protocol_variant():
+def test_thirds_schedule_is_the_measured_protocol_variant(monkeypatch):
     # the README times `--paths thirds` with relax_protocol's variant: one schedule, not two copies
-    import sys
     from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
+    import numba
+    # the study pins its threads on import (setdefault): here they stay as they
+    # are, or numba refuses the next compile in this process (launched with 2, asked 1)
+    monkeypatch.setenv("NUMBA_NUM_THREADS", str(numba.config.NUMBA_NUM_THREADS))
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "studies"))
     import relax_protocol
     assert curl_paths.parse_paths("thirds") == ["thirds"]
     assert curl_paths.SCHEDULES["thirds"] == relax_protocol.VARIANTS["thirds"]
