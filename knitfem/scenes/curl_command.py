@@ -104,6 +104,14 @@ def _beam_only_flags(v):
     if getattr(v, "bindoff_prestretch", False) and _bspline(v):
         refuse("--bindoff-prestretch", "applies to --model beam only (the bspline bind-off "
                "keeps its knitted length)", True)
+    if not _bspline(v) and getattr(v, "friction", None) == 0.0:
+        # without friction there are no friction planes nor anchors: both would do nothing
+        if frame is not None:
+            refuse("--friction-frame", "applies only with --friction > 0 (it turns the "
+                   "friction forces' planes)", frame)
+        if getattr(v, "reanchor", None) is not None:
+            refuse("--reanchor", "applies only with --friction > 0 (it anchors the friction "
+                   "of new contacts)", v.reanchor)
     paths = getattr(v, "paths", None)
     if paths is not None:
         from .curl_paths import SCHEDULES, parse_paths
