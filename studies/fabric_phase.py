@@ -27,6 +27,7 @@ record, the relaxed yarns curl.vtu and the model's full summary curl.json).
 Exit 0, 3 when a point failed, 2 on bad options, 130 / 143 when interrupted.
 """
 import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -50,11 +51,26 @@ OVERHEAD_S = 30.0             # s per B-spline point besides relaxing (build, st
 _BSPLINE = ("model", "bspline")
 
 
+# the sweep's own words for the round budgets: on ``knitfem curl`` a resume
+# may change them, here they are sweep constants (a resume with others is refused)
+SWEEP_HELP = {
+    "--max-rounds": "beam: friction rounds an increment of every point's relaxation may take "
+                    "before it is halved (default 4; twice that at lam = 1)",
+    "--snap-rounds": "beam: rounds beyond --max-rounds while each slides the swatch more than "
+                     "a yarn radius (default 8)",
+    "--settle": "beam: up to this many more passes of the final increment's rounds while a "
+                "point's friction has not settled (default 0; a point's checkpoint goes once "
+                "it is stored, so it cannot be settled later)",
+}
+
+
 def _curl_specs():
     """The ``knitfem curl`` options that make sense per point (one definition:
     its ranges, its yarn check, its model conditions — beam-only options
     refused with bspline, ``--max-time`` with beam)."""
-    return [spec for spec in curl_command.OPTIONS.specs
+    return [dataclasses.replace(spec, help=SWEEP_HELP[spec.flag])
+            if getattr(spec, "flag", None) in SWEEP_HELP else spec
+            for spec in curl_command.OPTIONS.specs
             if (isinstance(spec, Real) and spec.flag not in ("--nw", "--nc"))
             or (isinstance(spec, Check) and spec is not curl_command.RESUME)]
 
