@@ -68,7 +68,7 @@ def measure(nw, nc, repeat, warm, checkpoint=None):
     problem = EnergyProblem(model, 1.0)
     if checkpoint is None:
         lam = 0.1
-        Homotopy(model, scene.alpha).apply(lam)
+        Homotopy.of_scene(model, scene).apply(lam)
         state = model.initial_state()
         contact.anchor_friction(state.x, state.q)
         state = minimize(problem, state, tol=0.0, max_iter=warm, raise_on_failure=False).state
@@ -76,7 +76,7 @@ def measure(nw, nc, repeat, warm, checkpoint=None):
         # a relaxation's own state and friction anchors (the warm start has
         # hardly any anchors: friction forms as the yarns tighten)
         state, lam = load_checkpoint(Path(checkpoint), scene, model)[:2]
-        Homotopy(model, scene.alpha).apply(lam)
+        Homotopy.of_scene(model, scene).apply(lam)
     asm = model.assembly
     a, b = asm.elements
 
@@ -124,7 +124,7 @@ def round_steps(checkpoint, steps):
         lam = float(data["partial_numbers"][0])
     elif lam < 1.0:                         # the next one
         lam = min(1.0, lam + float(data["dlam"]))
-    Homotopy(model, scene.alpha).apply(lam)
+    Homotopy.of_scene(model, scene).apply(lam)
     model.contact_model.anchor_friction(state.x, state.q)
     problem = EnergyProblem(model, 1.0)
     minimize(problem, state, tol=0.0, max_iter=1, raise_on_failure=False)   # compile, caches

@@ -99,7 +99,7 @@ def probe(checkpoint, steps, samples):
     model, _, _ = build(scene)
     loaded = load_checkpoint(Path(checkpoint), scene, model)
     state, lam, _, _, partial = loaded
-    homotopy = Homotopy(model, scene.alpha)
+    homotopy = Homotopy.of_scene(model, scene)
     contact = model.contact_model
     if partial is not None:
         lam, state = partial.target, partial.state

@@ -58,7 +58,7 @@ def run(scene, options, name="", every=100):
                   f"{res:.1e}, {time.perf_counter() - t:.0f} s", file=sys.stderr, flush=True)
     t, cpu = time.perf_counter(), time.process_time()
     try:
-        eq, error = relax_fabric(model, Homotopy(model, scene.alpha), progress=progress,
+        eq, error = relax_fabric(model, Homotopy.of_scene(model, scene), progress=progress,
                                  **options), None
     except FabricRelaxationError as err:
         eq, error = None, str(err)

@@ -179,7 +179,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     from ..analysis.profile import profile_fields
     t0 = time.perf_counter()
     model, swatch, info = build(scene)
-    homotopy = Homotopy(model, scene.alpha, bindoff=scene.bindoff_prestretch)
+    homotopy = Homotopy.of_scene(model, scene)
     out = Path(out) if out is not None else None
     checkpoint_path = out / "checkpoint.npz" if out is not None else None
     start = None

@@ -252,6 +252,12 @@ class Homotopy:
     (the suspected cause of a 10 x 35 tube's flared ends -- rejected: with the
     shrink its top and bottom roll more than a full turn, README)."""
 
+    @classmethod
+    def of_scene(cls, model, scene):
+        """The homotopy of a :class:`FabricScene`'s model (its alpha and
+        bind-off pre-stretch: what ``knitfem curl`` relaxes along)."""
+        return cls(model, scene.alpha, bindoff=scene.bindoff_prestretch)
+
     def __init__(self, model, alpha, split=0.3, bindoff=False):
         asm = model.assembly
         self.assembly = asm
