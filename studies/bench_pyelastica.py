@@ -89,7 +89,7 @@ def srod_of(scene):
                 poisson=scene.poisson, elements=scene.elements)
 
 
-def knitfem_popup(scene, repeat=1, c_from=0.95, c_step=0.05):
+def knitfem_popup(scene, repeat=1, c_from=None, c_step=0.05):
     """Continuation from c_from down to scene.c_over_L (knitfem's own protocol).
 
     ``popup`` warms up only the element kernel; its first call in a process
@@ -99,6 +99,10 @@ def knitfem_popup(scene, repeat=1, c_from=0.95, c_step=0.05):
     dict, centreline (n+1, 3) in mm at c/L = scene.c_over_L).
     """
     from knitfem.scenes.srod import popup
+    if c_from is None:
+        # from at most 0.95 down in whole steps onto c itself: the answer is
+        # a sample at c, not the nearest one on a grid from 0.95
+        c_from = scene.c_over_L + c_step * math.floor((0.95 - scene.c_over_L) / c_step + 1e-9)
 
     def run():
         return popup(srod_of(scene), c_from=c_from, c_to=scene.c_over_L, c_step=c_step)
@@ -110,6 +114,9 @@ def knitfem_popup(scene, repeat=1, c_from=0.95, c_step=0.05):
     times = [r.elapsed_s for r in results]
     result = results[-1]
     sample = min(result.samples, key=lambda s: abs(s.c_over_L - scene.c_over_L))
+    if abs(sample.c_over_L - scene.c_over_L) > 1e-9:
+        raise ValueError(f"knitfem's branch has no sample at c/L = {scene.c_over_L} (nearest "
+                         f"{sample.c_over_L}): c_from {c_from} and c_step {c_step} miss it")
     summary = {
         "protocol": f"popup(SRod(elements={scene.elements}), c_from={c_from}, "
                     f"c_to={scene.c_over_L}, c_step={c_step})",
