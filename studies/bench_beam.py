@@ -291,13 +291,17 @@ def write(out, result):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--out", default="studies/results/bench_beam")
-    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--repeat", type=int, default=5,
+                        help="assembly timings: 2 x repeat + 1 runs each, median (the "
+                             "convergence table takes 3)")
     parser.add_argument("--only", choices=("all", "newton", "assembly"), default="all",
                         help="'newton' / 'assembly': only those tables (other tables kept "
                              "from the previous run's bench_beam.json)")
     parser.add_argument("--dry-run", action="store_true",
                         help="print the tables, write nothing (e.g. --only assembly to compare)")
     args = parser.parse_args()
+    if args.dry_run and args.only != "assembly":
+        parser.error("--dry-run only with --only assembly (the other tables are written)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.only == "newton":

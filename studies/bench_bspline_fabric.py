@@ -81,11 +81,19 @@ def main(argv=None):
     p.add_argument("--max-time", type=float, default=900.0)
     p.add_argument("--fire-traces", default=None)
     args = p.parse_args(argv)
+    sizes = args.sizes.split(",")
+    if len(sizes) not in (1, 2):
+        p.error(f"--sizes: one or two sizes (the figure has two panels), got {args.sizes!r}")
+    missing = [s for s in sizes if args.fire_traces
+               and not (Path(args.fire_traces) / f"trace_{s}.csv").exists()]
+    if missing:
+        p.error(f"--fire-traces: no trace_<size>.csv in {args.fire_traces} for {missing} "
+                "(leave the option out to run FIRE)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     results = {}
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for ax, size in zip(axes, args.sizes.split(",")):
+    for ax, size in zip(axes, sizes):
         nw, nc = (int(v) for v in size.split("x"))
         entry = {"timings": timings(nw, nc)}
         for method in ("fire", "dynamic"):

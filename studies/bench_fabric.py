@@ -184,6 +184,8 @@ def main():
                         help="checkpoint.npz files of knitfem curl runs: measure at their "
                              "state and friction anchors (scene from the checkpoint)")
     args = parser.parse_args()
+    if args.steps > 0 and not args.checkpoint:
+        parser.error("--steps times a friction round from a checkpoint: give --checkpoint")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []

@@ -274,6 +274,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.worker:
         return worker()
+    unknown = sorted(set((args.only or "").split(",")) - set(FAMILIES) - {""})
+    if args.only is not None and (unknown or not args.only.strip(",")):
+        parser.error(f"--only: unknown families {unknown or [args.only]}; valid: "
+                     f"{','.join(FAMILIES)}")
     from knitfem.io import write_json, write_text
     todo = stress_cases.grid(args.quick)
     if args.only:
