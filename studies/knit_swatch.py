@@ -56,10 +56,12 @@ def main():
     parser.add_argument("--runs", type=int, default=5, help="timing runs of 90 x 30 (0: skip)")
     parser.add_argument("--no-render", action="store_true")
     args = parser.parse_args()
-    sizes = {"w": args.w, "c": args.c, "radius": args.radius}
+    # the meshes and the timing are knitted like the main swatch
+    sizes = {"w": args.w, "c": args.c, "radius": args.radius,
+             "points_per_loop": args.points_per_loop}
 
-    summary = knit(args.nw, args.nc, **sizes, points_per_loop=args.points_per_loop,
-                   out=args.out, render=not args.no_render, check=True)
+    summary = knit(args.nw, args.nc, **sizes, out=args.out, render=not args.no_render,
+                   check=True)
     loop, chk = summary["loop"], summary["check"]
     print(f"{args.nw} x {args.nc}, w = {args.w}, c = {args.c}, r = {args.radius}: "
           f"a = {loop['roundness_a']:.4f}, h = {loop['half_height_h']:.4f}, "
