@@ -3,11 +3,11 @@
 For each swatch size (N_w, N_c) the B-spline model relaxes the prestretched
 swatch (:func:`knitfem.scenes.curl_bspline.bspline_curl`, FIRE, at most
 ``--max-time`` seconds, single-threaded) and the shared curl analysis
-classifies it.  The beam column comes from the beam path: from
-``knitfem.scenes.curl`` when that module exists (the lead's ``knitfem curl``),
-else from ``--beam-json DIR`` (files ``beam_<nw>x<nc>*.json`` written by
-``knitfem curl --json``), else it stays empty with a note (``--no-beam``
-skips running the beam path here).  Also the run time
+classifies it.  The beam column comes from ``--beam-json DIR`` (files
+``beam_<nw>x<nc>*.json`` written by ``knitfem curl --json``, refused unless
+relaxed at ``--alpha``) when it holds the size, else from running
+``knitfem.scenes.curl`` here (``--no-beam`` skips that: the column is then a
+note).  Also the run time
 against error on the first size: roll angles and residual against wall time.
 
     OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python studies/crosscheck_fabric.py \\
@@ -45,6 +45,9 @@ def beam_column(nw, nc, alpha, beam_json, run_beam=True):
     if beam_json:
         for path in sorted(glob.glob(str(Path(beam_json) / f"beam_{nw}x{nc}*.json"))):
             result = json.loads(Path(path).read_text())
+            if result.get("alpha") != alpha:
+                raise SystemExit(f"crosscheck_fabric: --beam-json {path} was relaxed at alpha "
+                                 f"{result.get('alpha')}, the B-spline column at {alpha}")
             result["note"] = f"from {Path(path).name}"
             rows.append(result)
         if rows:
@@ -142,8 +145,9 @@ def main(argv=None):
     p.add_argument("--out", default="studies/results/crosscheck_fabric")
     p.add_argument("--sizes", default="10x35,25x35,55x35")
     p.add_argument("--alpha", type=float, default=0.2)
-    p.add_argument("--max-time", type=float, default=1800.0)
-    p.add_argument("--method", default="fire", choices=("fire", "dynamic"))
+    p.add_argument("--max-time", type=float, default=None, help="s per size (default 1800)")
+    p.add_argument("--method", default=None, choices=("fire", "dynamic"),
+                   help="B-spline relaxation (default fire)")
     p.add_argument("--k-contact", type=float, default=None,
                    help="contact stiffness g/s^2 (default: YarnConstants')")
     p.add_argument("--beam-json", default=None,
@@ -154,6 +158,13 @@ def main(argv=None):
     p.add_argument("--table-only", action="store_true",
                    help="rebuild the table from the bspline_<size><tag>.json already in --out")
     args = p.parse_args(argv)
+    relaxing = {"--max-time": args.max_time, "--method": args.method,
+                "--k-contact": args.k_contact}
+    if args.table_only and any(v is not None for v in relaxing.values()):
+        given = ", ".join(k for k, v in relaxing.items() if v is not None)
+        p.error(f"--table-only relaxes nothing: {given} would do nothing")
+    args.max_time = 1800.0 if args.max_time is None else args.max_time
+    args.method = args.method or "fire"
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.table_only:
