@@ -240,3 +240,18 @@ def test_settle_passes_get_their_own_times_in_the_path_series():
     time, so the k-th settle pass (again at lam 1) is at time 1 + k."""
     assert curl_module.frame_times([0.1, 0.55, 1.0, 1.0, 1.0]) == [0.1, 0.55, 1.0, 2.0, 3.0]
     assert curl_module.frame_times([0.5, 1.0]) == [0.5, 1.0]
+
+
+def test_a_finished_run_resumed_with_new_budgets_records_no_change(tmp_path):
+    """Resuming a finished, settled run re-reports its answer and runs
+    nothing: a --max-rounds or --settle given then changed nothing, so the
+    summary's protocol is the run's own, without a budget change at lam 1."""
+    scene = FabricScene(3, 4, elements_per_loop=16)      # the curl analysis needs 4 courses
+    model, _, _ = build(scene)
+    state = model.initial_state()
+    settled = fabric_relax.Increment(1.0, 5, 1e-9, 0.0, 0.0, 1.0, True, 0.0)
+    curl_module._save_checkpoint(tmp_path / "checkpoint.npz", scene, state, 1.0, 0.5,
+                                 [settled], model.contact_model)
+    summary = curl_module.curl(scene, out=tmp_path, render=False, progress=False, resume=True,
+                               relax_options={"max_rounds": 12, "settle": 2})
+    assert summary["protocol"] == {} and summary["iterations"] == 5

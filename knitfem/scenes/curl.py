@@ -182,14 +182,14 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     homotopy = Homotopy.of_scene(model, scene)
     out = Path(out) if out is not None else None
     checkpoint_path = out / "checkpoint.npz" if out is not None else None
-    start = None
+    start = kept = None
     if out is not None:
         (out / "path").mkdir(parents=True, exist_ok=True)
         if resume:
             start = load_checkpoint(checkpoint_path, scene, model, relax_options)
             if start is not None:
-                relax_options = resumed_protocol(
-                    checkpoint_protocol(np.load(checkpoint_path)), relax_options, start[1])
+                kept = checkpoint_protocol(np.load(checkpoint_path))
+                relax_options = resumed_protocol(kept, relax_options, start[1])
         elif checkpoint_path.exists():
             checkpoint_path.unlink()
     bar = None
@@ -244,6 +244,11 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     if failure is not None:
         from .fabric_relax import equilibrium
         eq = equilibrium(model, failure.state, False, failure.increments)
+    elif start is not None and start[4] is None and len(eq.increments) == len(start[3]):
+        # a finished run re-reported: budgets given now changed nothing, so
+        # none is recorded as changed (the checkpoint's protocol stands)
+        relax_options = {k: v for k, v in kept.items()
+                         if not (k == "snap_rounds" and v == SNAP_ROUNDS)} or None
     shape = swatch_curl(eq.state.x, swatch)
     fields_ = {
         "curl": shape.curl, "edges_touch": bool(shape.edges_touch),
