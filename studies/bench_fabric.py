@@ -175,7 +175,9 @@ def main():
     parser.add_argument("--out", default="studies/results/bench_fabric")
     parser.add_argument("--sizes", default="3x4,5x5,10x10,10x35,25x35")
     parser.add_argument("--repeat", type=int, default=5)
-    parser.add_argument("--warm", type=int, default=10)
+    parser.add_argument("--warm", type=int, default=10,
+                        help="--sizes: minimisation steps from the knitted shape before timing "
+                             "(a --checkpoint is timed at its own state)")
     parser.add_argument("--runs", nargs="*", default=[])
     parser.add_argument("--steps", type=int, default=0,
                         help="with --checkpoint: also time this many iterations of the next "
