@@ -102,7 +102,13 @@ def knitfem_popup(scene, repeat=1, c_from=None, c_step=0.05):
     if c_from is None:
         # from at most 0.95 down in whole steps onto c itself: the answer is
         # a sample at c, not the nearest one on a grid from 0.95
-        c_from = scene.c_over_L + c_step * math.floor((0.95 - scene.c_over_L) / c_step + 1e-9)
+        steps = math.floor((0.95 - scene.c_over_L) / c_step + 1e-9)
+        if steps < 1:            # c within a step of 0.95: one shorter step from 0.95
+            if scene.c_over_L >= 0.95:
+                raise ValueError(f"--c must be below 0.95 (the branch starts there), got "
+                                 f"{scene.c_over_L}")
+            steps, c_step = 1, 0.95 - scene.c_over_L
+        c_from = scene.c_over_L + c_step * steps
 
     def run():
         return popup(srod_of(scene), c_from=c_from, c_to=scene.c_over_L, c_step=c_step)
@@ -118,6 +124,7 @@ def knitfem_popup(scene, repeat=1, c_from=None, c_step=0.05):
         raise ValueError(f"knitfem's branch has no sample at c/L = {scene.c_over_L} (nearest "
                          f"{sample.c_over_L}): c_from {c_from} and c_step {c_step} miss it")
     summary = {
+        "c_from": c_from,
         "protocol": f"popup(SRod(elements={scene.elements}), c_from={c_from}, "
                     f"c_to={scene.c_over_L}, c_step={c_step})",
         "max_abs_z_over_L": sample.max_abs_z_over_L,
@@ -484,7 +491,8 @@ def table(out):
         "",
         "| solver | protocol | max\\|z\\|/L | wall time (s) |",
         "|---|---|---:|---:|",
-        f"| knitfem | continuation c/L 0.95 -> {sc['c_over_L']}, popup elapsed_s, median of "
+        f"| knitfem | continuation c/L {kf.get('c_from', 0.95):.4g} -> {sc['c_over_L']}, "
+        f"popup elapsed_s, median of "
         f"{len(kf['elapsed_runs_s'])} | {kf['max_abs_z_over_L']:.5f} | {kf['elapsed_s']:.2f} |",
     ]
     for a in out["knitfem_cold_newton"]:

@@ -47,6 +47,10 @@ def finished_level(summary, cmd):
     from knitfem.scenes.fabric import FabricScene
     parsed = build_parser().parse_args(cmd[3:])
     finished = json.loads(summary.read_text())
+    if parsed.paths is not None or finished.get("error") is not None:
+        # knitfem curl --resume checks and reuses each finished path itself;
+        # a failed value goes on from its checkpoint (a raised budget may pass)
+        return None
     try:
         parsed.options.validate(parsed)           # fills in the defaults
         check_same_run(summary, FabricScene.stored(finished.get("scene") or {}),
@@ -55,8 +59,11 @@ def finished_level(summary, cmd):
     except ValueError as err:
         raise SystemExit(f"fabric_sensitivity: {err}") from None
     settle_due = (finished.get("friction_settled") is False
-                  and finished.get("settle_passes", 0) < (parsed.settle or 0)
-                  and (summary.parent / "checkpoint.npz").exists())
+                  and finished.get("settle_passes", 0) < (parsed.settle or 0))
+    if settle_due and not (summary.parent / "checkpoint.npz").exists():
+        print(f"fabric_sensitivity: {summary.parent} has no checkpoint to settle from; its "
+              "answer is kept unsettled", file=sys.stderr)
+        settle_due = False
     return None if settle_due else finished
 
 
@@ -70,7 +77,8 @@ def run_level(args, level, extra):
         finished = finished_level(summary, cmd)
         if finished is not None:
             return finished
-    if args.resume and (folder / "checkpoint.npz").exists():
+    if args.resume and ((folder / "checkpoint.npz").exists() or "--paths" in extra
+                        or any(a.startswith("--paths=") for a in extra)):
         cmd.append("--resume")
     env = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1",
                OPENBLAS_NUM_THREADS="1")

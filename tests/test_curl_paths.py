@@ -137,3 +137,19 @@ def test_a_failed_path_goes_on_from_its_checkpoint_on_resume(tmp_path, monkeypat
                                     relax_options={"max_rounds": 12})
     assert calls == [("path_default", True, 12)]
     assert [r["curl"] for r in summary["paths"]] == ["double", "double"]
+
+
+def test_friction_options_without_friction_are_noted_not_hidden(tmp_path, monkeypatch, capsys):
+    """--reanchor and --friction-frame do nothing at --friction 0: the run goes
+    on (a frictionless run made with them resumes with them) and says so."""
+    from knitfem.cli import main
+    from knitfem.scenes import curl as curl_module
+
+    def fake_curl(scene, *, out, render, progress, resume, relax_options):
+        assert scene.friction == 0.0 and relax_options == {"reanchor": 0.2}
+        return {**_summary("double", 1.0), "nw": 3, "nc": 4, "friction_settled": True}
+    monkeypatch.setattr(curl_module, "curl", fake_curl)
+    argv = ["curl", "--nw", "3", "--nc", "4", "--friction", "0", "--reanchor", "0.2",
+            "--friction-frame", "anchor", "--out", str(tmp_path), "--no-render", "--quiet"]
+    assert main(argv) == 0
+    assert "note: --friction-frame and --reanchor did nothing" in capsys.readouterr().err

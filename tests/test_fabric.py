@@ -264,9 +264,6 @@ def test_curl_command_refuses_bad_options_in_one_line(capsys):
                        (["curl", "--model", "bspline", "--tail-ties", "2"], "--tail-ties"),
                        (["curl", "--reanchor", "0"], "--reanchor"),
                        (["curl", "--model", "bspline", "--reanchor", "0.2"], "--reanchor"),
-                       (["curl", "--friction", "0", "--reanchor", "0.2"], "--reanchor"),
-                       (["curl", "--friction", "0", "--friction-frame", "anchor"],
-                        "--friction-frame"),
                        (["curl", "--nw", "55", "--nc", "35"], "--no-limits")):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()

@@ -56,3 +56,13 @@ def test_an_unsettled_value_goes_on_when_settle_passes_are_asked_for(tmp_path):
     (path.parent / "checkpoint.npz").write_bytes(b"")       # it can go on from there
     assert module.finished_level(path, command(path.parent, "--settle", "2")) is None
     assert module.finished_level(path, command(path.parent)) is not None
+
+
+def test_failed_values_and_paths_runs_go_back_to_knitfem_curl(tmp_path):
+    """A failed value resumes (a raised --max-rounds may get it through); a
+    --paths value is checked path by path by knitfem curl --resume itself."""
+    module = load()
+    path = finished(tmp_path / "alpha=0.2", error="relaxation failed near homotopy lam = 0.8")
+    assert module.finished_level(path, command(path.parent, "--max-rounds", "12")) is None
+    path = finished(tmp_path / "alpha=0.3", protocol={"dlam": 0.1, "dlam_max": 0.25})
+    assert module.finished_level(path, command(path.parent, "--paths", "default")) is None

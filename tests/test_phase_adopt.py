@@ -164,3 +164,33 @@ def test_the_sweeps_relaxation_options_reach_every_points_relaxation(tmp_path, m
     phase_sweep([3], [4], tmp_path / "b", model="beam", workers=0, progress=False,
                 options={"max_rounds": 4})
     assert seen == [{"reanchor": 0.2, "max_rounds": 12, "settle": 2}, None]
+
+
+def test_settle_and_budgets_at_their_defaults_do_not_part_a_run_from_the_sweep(tmp_path):
+    """A settled run that ran no settle pass is the same run whatever --settle
+    was; a budget at its default named or not is the same budget."""
+    out = sweep_folder(tmp_path / "sweep", options={**OPTIONS, "settle": 2})
+    plain = finished_run(tmp_path / "plain", friction_settled=True, settle_passes=0)
+    assert adopt_run(out, plain)["status"] == "done"
+    out = sweep_folder(tmp_path / "default", options=OPTIONS)
+    named = finished_run(tmp_path / "named", protocol={"max_rounds": 4, "snap_rounds": 8})
+    assert adopt_run(out, named)["status"] == "done"
+    unsettled = finished_run(tmp_path / "unsettled", friction_settled=False, settle_passes=0)
+    out = sweep_folder(tmp_path / "settling", options={**OPTIONS, "settle": 2})
+    with pytest.raises(ValueError, match="protocol options"):
+        adopt_run(out, unsettled)
+
+
+def test_a_sweep_resumes_with_its_budgets_named_at_their_defaults(tmp_path, monkeypatch):
+    """--max-rounds 4 (the default) given on a resume is the same sweep."""
+    def relaxed(scene, *, out, relax_options=None, **kw):
+        summary = {"nw": scene.nw, "nc": scene.nc, "curl": "double", "converged": True,
+                   "stable": True, "error": None, "roll_deg": ROLLS}
+        (out / f"curl_{scene.nw}x{scene.nc}.json").write_text(json.dumps(summary))
+        (out / f"curl_{scene.nw}x{scene.nc}.vtu").write_text("relaxed")
+        return summary
+    monkeypatch.setattr(beam_curl, "curl", relaxed)
+    phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False)
+    rows, sweep = phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False,
+                              options={"max_rounds": 4, "settle": 0}, resume=True)
+    assert sweep.reused == 1

@@ -242,16 +242,27 @@ def test_settle_passes_get_their_own_times_in_the_path_series():
     assert curl_module.frame_times([0.5, 1.0]) == [0.5, 1.0]
 
 
-def test_a_finished_run_resumed_with_new_budgets_records_no_change(tmp_path):
+@pytest.mark.parametrize("move", [0.0, 0.5])
+def test_a_finished_run_resumed_with_new_budgets_records_a_change_only_if_it_ran(
+        tmp_path, monkeypatch, move):
     """Resuming a finished, settled run re-reports its answer and runs
     nothing: a --max-rounds or --settle given then changed nothing, so the
-    summary's protocol is the run's own, without a budget change at lam 1."""
+    summary's protocol is the run's own, without a budget change at lam 1.
+    An unsettled one runs its settle pass, and the change is recorded."""
     scene = FabricScene(3, 4, elements_per_loop=16)      # the curl analysis needs 4 courses
     model, _, _ = build(scene)
     state = model.initial_state()
-    settled = fabric_relax.Increment(1.0, 5, 1e-9, 0.0, 0.0, 1.0, True, 0.0)
+    final = fabric_relax.Increment(1.0, 5, 1e-9, 0.0, 0.0, 1.0, True,
+                                   move * scene.radius)
     curl_module._save_checkpoint(tmp_path / "checkpoint.npz", scene, state, 1.0, 0.5,
-                                 [settled], model.contact_model)
+                                 [final], model.contact_model)
+    calls = []
+    _rounds(monkeypatch, [0.0], calls=calls)
     summary = curl_module.curl(scene, out=tmp_path, render=False, progress=False, resume=True,
                                relax_options={"max_rounds": 12, "settle": 2})
-    assert summary["protocol"] == {} and summary["iterations"] == 5
+    if move == 0.0:
+        assert calls == [] and summary["protocol"] == {} and summary["iterations"] == 5
+    else:
+        assert calls == [1.0] and summary["settle_passes"] == 1
+        changes = summary["protocol"]["budget_changes"]
+        assert {(c["option"], c["to"]) for c in changes} == {("max_rounds", 12), ("settle", 2)}

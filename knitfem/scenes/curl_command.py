@@ -104,14 +104,6 @@ def _beam_only_flags(v):
     if getattr(v, "bindoff_prestretch", False) and _bspline(v):
         refuse("--bindoff-prestretch", "applies to --model beam only (the bspline bind-off "
                "keeps its knitted length)", True)
-    if not _bspline(v) and getattr(v, "friction", None) == 0.0:
-        # without friction there are no friction planes nor anchors: both would do nothing
-        if frame is not None:
-            refuse("--friction-frame", "applies only with --friction > 0 (it turns the "
-                   "friction forces' planes)", frame)
-        if getattr(v, "reanchor", None) is not None:
-            refuse("--reanchor", "applies only with --friction > 0 (it anchors the friction "
-                   "of new contacts)", v.reanchor)
     paths = getattr(v, "paths", None)
     if paths is not None:
         from .curl_paths import SCHEDULES, parse_paths
@@ -282,6 +274,13 @@ def run(args):
         write_summary(args, summary, f"{verdict}, converged {summary['converged']}, "
                       f"stable {summary['stable']}; wrote {args.json}")
     failed = summary.get("error") is not None or not summary["converged"]
+    if args.model == "beam" and args.friction == 0.0:
+        # accepted (a frictionless run made with them resumes with them), not hidden
+        idle = [f for f, v in (("--friction-frame", args.friction_frame),
+                               ("--reanchor", args.reanchor)) if v is not None]
+        if idle:
+            print(f"knitfem curl: note: {' and '.join(idle)} did nothing: without friction "
+                  "there are no friction planes nor anchors", file=sys.stderr)
     if summary.get("friction_settled") is False:
         # an equilibrium, but for the last round's lagged friction anchors
         print(f"knitfem curl: the friction did not settle: its last round moved the swatch by "

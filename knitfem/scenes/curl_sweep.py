@@ -175,7 +175,15 @@ def adopt_run(out, summary_path, nw_values=None, nc_values=None, replace=False):
     from .curl_command import PROTOCOL, relax_protocol
     options = dict(constants.get("curl", {}))
     wanted = relax_protocol(**{k: options.pop(k) for k in PROTOCOL if k in options}) or {}
-    if (summary.get("protocol") or {}) != wanted:
+    ran = dict(summary.get("protocol") or {})
+    if "budget_changes" not in ran:
+        ran = _normal_protocol(ran)
+    if summary.get("friction_settled") is True and not summary.get("settle_passes"):
+        # settle passes run only while the friction has not settled: none ran,
+        # so the run is the same whatever --settle was
+        wanted.pop("settle", None)
+        ran.pop("settle", None)
+    if ran != wanted:
         raise ValueError(f"adopt {path}: relaxed with the protocol options "
                          f"{summary.get('protocol') or {}}, the sweep's points with {wanted} "
                          "(--reanchor, --max-rounds, --snap-rounds, --settle; a budget changed "
@@ -274,6 +282,15 @@ def phase_rows(sweep, model):
     return rows
 
 
+def _normal_protocol(options):
+    """``options`` with its relaxation options (:data:`~.curl_command.PROTOCOL`)
+    at their defaults left out, as the relaxation sees them: ``--max-rounds 4``
+    given or not is the same sweep (its constants compared on resume)."""
+    from .curl_command import PROTOCOL, relax_protocol
+    given = {k: options.pop(k) for k in PROTOCOL if k in options}
+    return {**options, **(relax_protocol(**given) or {})}
+
+
 def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, resume=False,
                 workers=None, scheduler=None, progress=True):
     """Run :func:`curl_point` over every (nw, nc) through
@@ -283,7 +300,7 @@ def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, res
     from ..sweep import grid, run_sweep
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
-    constants = {"model": model, "curl": dict(options or {})}
+    constants = {"model": model, "curl": _normal_protocol(dict(options or {}))}
     result = run_sweep(curl_point, grid(nw=list(nw_values), nc=list(nc_values)), out,
                        constants=constants, resume=resume, workers=workers,
                        scheduler=scheduler, progress=progress, desc=f"{model} curls")
