@@ -58,7 +58,7 @@ def test_bindoff_prestretch_shrinks_the_helices_rest_length_and_keeps_their_turn
         asm, state = model.assembly, model.initial_state()
         helix = asm.rod_of_element != 0
         kappa_knitted = asm.kappa0[helix].copy()
-        homotopy = Homotopy(model, scene.alpha, bindoff=scene.bindoff_prestretch)
+        homotopy = Homotopy.of_scene(model, scene)        # what knitfem curl relaxes along
         for lam in (0.0, 0.15, 0.3, 1.0):
             homotopy.apply(lam)
             gamma = asm.strains(state.x, state.q)[0]
