@@ -45,6 +45,7 @@ def finished_level(summary, cmd):
     from knitfem.scenes.curl import check_same_run
     from knitfem.scenes.curl_command import PROTOCOL, relax_protocol, scene_of
     from knitfem.scenes.fabric import FabricScene
+    from knitfem.scenes.fabric_rounds import settle_due_after
     parsed = build_parser().parse_args(cmd[3:])
     finished = json.loads(summary.read_text())
     if parsed.paths is not None or finished.get("error") is not None:
@@ -58,8 +59,7 @@ def finished_level(summary, cmd):
                        relax_protocol(**{k: getattr(parsed, k) for k in PROTOCOL}))
     except ValueError as err:
         raise SystemExit(f"fabric_sensitivity: {err}") from None
-    settle_due = (finished.get("friction_settled") is False
-                  and finished.get("settle_passes", 0) < (parsed.settle or 0))
+    settle_due = settle_due_after(finished, parsed.settle)
     if settle_due and not (summary.parent / "checkpoint.npz").exists():
         print(f"fabric_sensitivity: {summary.parent} has no checkpoint to settle from; its "
               "answer is kept unsettled", file=sys.stderr)

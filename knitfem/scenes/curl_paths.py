@@ -85,8 +85,8 @@ def _settle_due(finished, options, folder):
     checkpoint) when ``options`` ask for more settle passes than it has run;
     without its checkpoint it is kept as it is, with a warning (rerun from
     nothing it would not be the same path)."""
-    due = (finished.get("friction_settled") is False
-           and finished.get("settle_passes", 0) < (options.get("settle") or 0))
+    from .fabric_rounds import settle_due_after
+    due = settle_due_after(finished, options.get("settle"))
     if due and not (folder / "checkpoint.npz").exists():
         warnings.warn(f"--settle: {folder} has no checkpoint to continue; its answer is kept "
                       "unsettled", stacklevel=3)

@@ -71,3 +71,11 @@ def settle_pass_due(increments, creep, settle):
     final = [inc for inc in increments if inc.accepted and inc.lam == 1.0]
     return (bool(final) and settle_passes(increments) < settle
             and np.isfinite(final[-1].moved) and final[-1].moved > creep)
+
+
+def settle_due_after(summary, settle):
+    """Are settle passes due for a finished run, read from its summary (a
+    ``knitfem curl`` JSON): its friction did not settle and it has run fewer
+    than ``settle`` passes (the summary's view of :func:`settle_pass_due`)."""
+    return (summary.get("friction_settled") is False
+            and (summary.get("settle_passes") or 0) < (settle or 0))
