@@ -43,7 +43,7 @@ def finished_level(summary, cmd):
     differs otherwise (kept, it would put another swatch's row in the table)."""
     from knitfem.cli import build_parser
     from knitfem.scenes.curl import check_same_run
-    from knitfem.scenes.curl_command import PROTOCOL, relax_protocol, scene_of
+    from knitfem.scenes.curl_command import protocol_of, scene_of
     from knitfem.scenes.fabric import FabricScene
     from knitfem.scenes.fabric_rounds import settle_due_after
     parsed = build_parser().parse_args(cmd[3:])
@@ -55,8 +55,7 @@ def finished_level(summary, cmd):
     try:
         parsed.options.validate(parsed)           # fills in the defaults
         check_same_run(summary, FabricScene.stored(finished.get("scene") or {}),
-                       finished.get("protocol"), scene_of(parsed),
-                       relax_protocol(**{k: getattr(parsed, k) for k in PROTOCOL}))
+                       finished.get("protocol"), scene_of(parsed), protocol_of(parsed))
     except ValueError as err:
         raise SystemExit(f"fabric_sensitivity: {err}") from None
     settle_due = settle_due_after(finished, parsed.settle)

@@ -145,20 +145,26 @@ def test_a_run_is_adopted_only_with_the_sweeps_relaxation_options(tmp_path):
     assert adopt_run(out, finished_run(tmp_path / "plain_run"))["status"] == "done"
 
 
-def test_the_sweeps_relaxation_options_reach_every_points_relaxation(tmp_path, monkeypatch):
-    """--reanchor, --max-rounds, --snap-rounds and --settle of the phase study
-    go to each point's relaxation (they were parsed and dropped before), the
-    defaults as none."""
-    seen = []
-
+def _relaxed_stand_in(seen=None):
+    """A stand-in for curl(): a double-curled answer written where curl()
+    writes it; ``seen`` collects the relaxation options it was given."""
     def relaxed(scene, *, out, relax_options=None, **kw):
-        seen.append(relax_options)
+        if seen is not None:
+            seen.append(relax_options)
         summary = {"nw": scene.nw, "nc": scene.nc, "curl": "double", "converged": True,
                    "stable": True, "error": None, "roll_deg": ROLLS}
         (out / f"curl_{scene.nw}x{scene.nc}.json").write_text(json.dumps(summary))
         (out / f"curl_{scene.nw}x{scene.nc}.vtu").write_text("relaxed")
         return summary
-    monkeypatch.setattr(beam_curl, "curl", relaxed)
+    return relaxed
+
+
+def test_the_sweeps_relaxation_options_reach_every_points_relaxation(tmp_path, monkeypatch):
+    """--reanchor, --max-rounds, --snap-rounds and --settle of the phase study
+    go to each point's relaxation (they were parsed and dropped before), the
+    defaults as none."""
+    seen = []
+    monkeypatch.setattr(beam_curl, "curl", _relaxed_stand_in(seen))
     phase_sweep([3], [4], tmp_path / "a", model="beam", workers=0, progress=False,
                 options={"max_rounds": 12, "settle": 2, "reanchor": 0.2, "snap_rounds": 8})
     phase_sweep([3], [4], tmp_path / "b", model="beam", workers=0, progress=False,
@@ -183,13 +189,7 @@ def test_settle_and_budgets_at_their_defaults_do_not_part_a_run_from_the_sweep(t
 
 def test_a_sweep_resumes_with_its_budgets_named_at_their_defaults(tmp_path, monkeypatch):
     """--max-rounds 4 (the default) given on a resume is the same sweep."""
-    def relaxed(scene, *, out, relax_options=None, **kw):
-        summary = {"nw": scene.nw, "nc": scene.nc, "curl": "double", "converged": True,
-                   "stable": True, "error": None, "roll_deg": ROLLS}
-        (out / f"curl_{scene.nw}x{scene.nc}.json").write_text(json.dumps(summary))
-        (out / f"curl_{scene.nw}x{scene.nc}.vtu").write_text("relaxed")
-        return summary
-    monkeypatch.setattr(beam_curl, "curl", relaxed)
+    monkeypatch.setattr(beam_curl, "curl", _relaxed_stand_in())
     phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False)
     rows, sweep = phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False,
                               options={"max_rounds": 4, "settle": 0}, resume=True)

@@ -236,6 +236,11 @@ def relax_protocol(reanchor=None, max_rounds=None, snap_rounds=None, settle=None
     return protocol or None
 
 
+def protocol_of(args):
+    """:func:`relax_protocol` of parsed ``curl`` options."""
+    return relax_protocol(**{k: getattr(args, k) for k in PROTOCOL})
+
+
 def scene_of(args):
     """The beam :class:`~.fabric.FabricScene` of parsed ``curl`` options."""
     from .fabric import FabricScene
@@ -259,7 +264,7 @@ def run(args):
         else:
             from .curl import curl
             scene = scene_of(args)
-            protocol = relax_protocol(**{k: getattr(args, k) for k in PROTOCOL})
+            protocol = protocol_of(args)
             if args.paths is not None:
                 from .curl_paths import curl_paths, parse_paths
                 summary = curl_paths(scene, parse_paths(args.paths), out=args.out,

@@ -74,11 +74,10 @@ def _beam(nw, nc, options, out_dir, work_dir=None):
     from .fabric import FabricScene
     from .fabric_relax import FabricRelaxationError
     options = _options(options, BEAM_OPTIONS, "beam")
-    from .curl_command import PROTOCOL, relax_protocol
     paths = options.pop("paths", None)
     # the relaxation's options (a point's checkpoint goes once it is stored,
     # so its settle passes, --settle, run now or never)
-    relax = relax_protocol(**{k: options.pop(k) for k in PROTOCOL if k in options})
+    relax = _pop_protocol(options) or None
     scene = FabricScene(nw, nc, **options)
     # in the sweep's lasting folder the relaxation checkpoints, and a killed
     # point resumes from there (engine docstring); else in a temporary one
@@ -172,9 +171,8 @@ def adopt_run(out, summary_path, nw_values=None, nc_values=None, replace=False):
     if summary.get("error") is not None or summary.get("curl") is None or not vtu.is_file():
         raise ValueError(f"adopt {path}: not a relaxed swatch with its .vtu "
                          f"(error {summary.get('error')!r}, curl {summary.get('curl')!r})")
-    from .curl_command import PROTOCOL, relax_protocol
     options = dict(constants.get("curl", {}))
-    wanted = relax_protocol(**{k: options.pop(k) for k in PROTOCOL if k in options}) or {}
+    wanted = _pop_protocol(options)
     ran = dict(summary.get("protocol") or {})
     if "budget_changes" not in ran:
         ran = _normal_protocol(ran)
@@ -282,13 +280,20 @@ def phase_rows(sweep, model):
     return rows
 
 
-def _normal_protocol(options):
-    """``options`` with its relaxation options (:data:`~.curl_command.PROTOCOL`)
-    at their defaults left out, as the relaxation sees them: ``--max-rounds 4``
-    given or not is the same sweep (its constants compared on resume)."""
+def _pop_protocol(options):
+    """Take the relaxation options (:data:`~.curl_command.PROTOCOL`) out of
+    ``options`` (a dict, changed) and return them as the relaxation sees them:
+    those at their defaults left out ({} when none is left)."""
     from .curl_command import PROTOCOL, relax_protocol
-    given = {k: options.pop(k) for k in PROTOCOL if k in options}
-    return {**options, **(relax_protocol(**given) or {})}
+    return relax_protocol(**{k: options.pop(k) for k in PROTOCOL if k in options}) or {}
+
+
+def _normal_protocol(options):
+    """``options`` with its relaxation options at their defaults left out
+    (:func:`_pop_protocol`): ``--max-rounds 4`` given or not is the same sweep
+    (its constants compared on resume)."""
+    protocol = _pop_protocol(options)
+    return {**options, **protocol}
 
 
 def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, resume=False,
