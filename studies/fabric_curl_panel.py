@@ -58,6 +58,18 @@ def render(summary, vtu, out):
     return paths
 
 
+def path_name(summary):
+    """The homotopy schedule a run took (``knitfem curl --paths`` names), or
+    its increments when they are no named schedule."""
+    from knitfem.scenes.curl_paths import SCHEDULES
+    protocol = summary.get("protocol") or {}
+    steps = {key: protocol.get(key, SCHEDULES["default"][key]) for key in ("dlam", "dlam_max")}
+    for name, schedule in SCHEDULES.items():
+        if schedule == steps:
+            return name
+    return f"dlam {steps['dlam']:g} / {steps['dlam_max']:g}"
+
+
 def panel(runs, out):
     fig, axes = plt.subplots(2, len(runs), figsize=(4.2 * len(runs), 7.5), squeeze=False)
     for k, (summary, vtu) in enumerate(runs):
@@ -66,7 +78,7 @@ def panel(runs, out):
         scene = summary["scene"]
         mirrored = " (mirrored)" if scene.get("mirror") else ""
         axes[0, k].set_title(f"N_w × N_c = {summary['nw']} × {summary['nc']}{mirrored}, α = "
-                             f"{summary['alpha']:g}, μ = {scene['friction']:g}\n"
+                             f"{summary['alpha']:g}, μ = {scene['friction']:g}, path {path_name(summary)}\n"
                              f"{summary['curl']} curl"
                              + ("" if summary["converged"] else " (NOT converged)")
                              + f"\nrolls L/R/T/B {r['left']:.0f}/{r['right']:.0f}/"
