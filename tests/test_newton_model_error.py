@@ -40,14 +40,17 @@ def test_terms_add_up_to_the_energy_problem_and_each_hessian_is_its_forces_deriv
     scale = np.abs(g).max()
     assert np.abs(total_f - problem.lam * problem.f_ext[problem.free] - g).max() <= 1e-10 * scale
     assert abs(total_H - H).max() <= 1e-10 * abs(H).max()
-    # a small step along the Newton direction: every term's force changes as
-    # its Hessian predicts, to 5 % -- the beam's is the symmetric part of the
-    # Simo-Reissner tangent, whose skew part grows with the unbalanced moments
-    # away from equilibrium (1.4 % here), the co-rotated friction's is exact
-    # to ~1e-3 of the frames' turn (README); a term given another's Hessian
-    # would be off by ~100 %.  The contact and friction act at this state.
+    # a small step along the Newton direction (1e-5 r): every term's force
+    # changes as its Hessian predicts, to 5 % -- the beam's is the symmetric
+    # part of the Simo-Reissner tangent, whose skew part grows with the
+    # unbalanced moments away from equilibrium (1e-4 here), the co-rotated
+    # friction's is exact to ~1e-3 of the frames' turn (README); a term given
+    # another's Hessian would be off by ~100 %.  The step is small because a
+    # tie near its pivot is strongly nonlinear: at 1e-3 r its remainder was
+    # 25 % (1e-4 r: 2.5 %, 1e-5 r: 0.25 %: exact, first-order remainder).
+    # The contact and friction act at this state.
     _, _, _, dx, _, _ = probe.newton_step(problem, state)
-    dx *= 1e-3 * model.rods[0].section.radius / np.abs(dx).max()
+    dx *= 1e-5 * model.rods[0].section.radius / np.abs(dx).max()
     after = probe.term_forces(problem, problem.retract(state, dx))
     relative = {}
     for name, (f0, K0) in terms.items():
