@@ -15,6 +15,7 @@ import shutil
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -62,10 +63,12 @@ def path_name(summary):
     """The homotopy schedule a run took (``knitfem curl --paths`` names), or
     its increments when they are no named schedule."""
     from knitfem.scenes.curl_paths import SCHEDULES
-    protocol = summary.get("protocol") or {}
+    if "protocol" not in summary:       # summaries before the protocol was kept
+        return "not recorded"
+    protocol = summary["protocol"] or {}
     steps = {key: protocol.get(key, SCHEDULES["default"][key]) for key in ("dlam", "dlam_max")}
     for name, schedule in SCHEDULES.items():
-        if schedule == steps:
+        if all(np.isclose(schedule[key], steps[key]) for key in steps):
             return name
     return f"dlam {steps['dlam']:g} / {steps['dlam_max']:g}"
 

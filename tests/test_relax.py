@@ -419,3 +419,33 @@ def test_a_soft_mode_is_not_damped_for_long_after_good_steps():
     assert result.converged and result.iterations <= 7
     assert all(h[3] == 1.0 for h in result.history)         # full steps throughout
     assert np.allclose(result.state, np.linalg.solve(A, b), rtol=1e-6)
+
+
+def test_a_step_the_model_predicted_badly_keeps_the_threefold_drop():
+    """E = x^2 / 2 with a Hessian model of 0.7 (true 1): every Newton step is
+    full (x -> -0.43 x, Armijo holds) but the energy falls by 0.57 of the
+    predicted decrease, below the gain the fast drop needs (0.75): mu falls
+    3-fold a step.  With the exact Hessian (gain 1) it falls 100-fold."""
+    from scipy import sparse
+
+    def problem(h):
+        class Parabola:
+            def evaluate(self, x, hessian=True):
+                E, g = float(0.5 * x @ x), x.copy()
+                if not hessian:
+                    return E, g, None, None
+                H = sparse.csr_matrix([[h]])
+                return E, g, H, lambda: H
+
+            def residual(self, g):
+                return float(np.linalg.norm(g))
+
+            def retract(self, x, dx):
+                return x + dx
+        return Parabola()
+    for h, drop in ((0.7, 3.0), (1.0, 100.0)):
+        result = minimize(problem(h), np.ones(1), tol=1e-30, max_iter=3, mu=1e-3,
+                          raise_on_failure=False)
+        mus = [1e-3] + [step[2] for step in result.history]
+        assert all(step[3] == 1.0 for step in result.history)
+        assert np.allclose(np.divide(mus[:-1], mus[1:]), drop), (h, mus)

@@ -174,7 +174,8 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
             if t == 1.0:
                 # the gain ratio of a trust-region method: actual / predicted decrease
                 predicted = -(slope + 0.5 * float(dx @ ((H if model is None else model) @ dx)))
-                if predicted > 0.0 and (E - E_try) > GOOD_GAIN * predicted:
+                # (not for a step the round-off branch took: there both are noise)
+                if predicted > noise and (E - E_try) > GOOD_GAIN * predicted:
                     drop = FAST_DROP
             x = x_try
             E, g, H, Hp = problem.evaluate(x, True)
