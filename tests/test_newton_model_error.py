@@ -48,7 +48,8 @@ def test_terms_add_up_to_the_energy_problem_and_each_hessian_is_its_forces_deriv
     # friction's is exact to ~1e-3 of the frames' turn (README); a term given
     # another's Hessian would be off by ~100 %.  The step is small because a
     # tie near its pivot is strongly nonlinear: at 1e-3 r its remainder was
-    # 25 % (1e-4 r: 2.5 %, 1e-5 r: 0.25 %: exact, first-order remainder).
+    # 25 % (1e-4 r: 2.5 %, 1e-5 r: 0.25 %: the error falls with the step, the
+    # Hessian is exact).
     # The contact and friction act at this state.
     _, _, _, dx, _, _ = probe.newton_step(problem, state)
     dx *= 1e-5 * model.rods[0].section.radius / np.abs(dx).max()
