@@ -57,6 +57,15 @@ def test_rerun_into_the_same_out_removes_stale_shapes_and_lists_its_files(tmp_pa
     assert manifest["parameters"]["c_step"] == 0.05
     on_disk = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file())
     assert sorted(manifest["files"] + ["run.json"]) == on_disk
+    # which code made it: the checkout's commit (the tests run from one)
+    repo = Path(__file__).resolve().parents[1]
+    head = subprocess.run(["git", "-C", str(repo), "rev-parse", "HEAD"], capture_output=True,
+                          text=True)
+    if head.returncode == 0:
+        assert manifest["source"]["commit"] == head.stdout.strip()
+        assert isinstance(manifest["source"]["modified"], bool)
+    else:
+        assert manifest["source"] is None
 
 
 def test_knit_keeps_the_other_swatches_of_its_folder(tmp_path):

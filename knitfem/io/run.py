@@ -3,6 +3,7 @@
 ``run.json`` says what produced the folder and whether it is whole::
 
     {"command": "knitfem popup ...", "version": "0.1.0",
+     "source": {"commit": "4cc4c97...", "modified": false},
      "parameters": {...}, "files": ["branch.csv", ...],
      "complete": true, "started": "...", "finished": "...", "elapsed_s": 1.2}
 
@@ -22,6 +23,10 @@ Protocol (:class:`RunFolder`, a context manager):
    ``interrupted`` (the reason).
 
 Files that neither a manifest nor ``outputs`` names are never removed.
+``source`` is the git commit of the knitfem checkout that ran (``modified``:
+tracked files differed from it), null for an installed copy: long relaxations
+are resumed across code versions, and "which code made this" must be
+answerable from the folder.
 
 Use (a command with an ``--out`` option)::
 
@@ -32,8 +37,10 @@ Use (a command with an ``--out`` option)::
         write_json(run.path / "curl.json", summary)
 """
 from datetime import datetime, timezone
+import functools
 import json
 from pathlib import Path
+import subprocess
 import sys
 import time
 
@@ -45,6 +52,22 @@ MANIFEST = "run.json"
 def _version():
     from .. import __version__
     return __version__
+
+
+@functools.lru_cache(maxsize=1)
+def source():
+    """{"commit", "modified"} of the git checkout knitfem runs from, or None."""
+    here = Path(__file__).resolve().parents[2]
+    try:
+        def git(*args):
+            return subprocess.run(["git", "-C", str(here), *args], capture_output=True,
+                                  text=True, timeout=10, check=True).stdout.strip()
+        if Path(git("rev-parse", "--show-toplevel")).resolve() != here:
+            return None                 # knitfem installed inside some other repository
+        return {"commit": git("rev-parse", "HEAD"),
+                "modified": bool(git("status", "--porcelain", "--untracked-files=no"))}
+    except (OSError, subprocess.SubprocessError):
+        return None
 
 
 def _now():
@@ -93,7 +116,7 @@ class RunFolder:
         return sorted(found)
 
     def _manifest(self, **extra):
-        record = {"command": self.command, "version": _version(),
+        record = {"command": self.command, "version": _version(), "source": source(),
                   "parameters": self.parameters,
                   "files": [str(Path(f).relative_to(self.path)) if Path(f).is_relative_to(
                       self.path) else str(f) for f in self.files],
