@@ -94,3 +94,22 @@ def test_sigint_prints_one_line_exits_130_and_marks_the_folder_incomplete(tmp_pa
     manifest = json.loads((out / "run.json").read_text())
     assert manifest["complete"] is False and manifest["interrupted"] == "SIGINT"
     assert not [p for p in Path(out).rglob(".*tmp*")]        # no half-written temporaries
+
+
+def test_a_resumed_run_keeps_the_processes_before_it_in_its_manifest(tmp_path):
+    """run.json of a --resume'd run lists the earlier processes (start, end,
+    source, complete), oldest first; a fresh run into the folder starts over."""
+    from knitfem.io.run import RunFolder
+
+    def run(resume):
+        with RunFolder(tmp_path, "knitfem curl", {"resume": resume}) as folder:
+            write_text(folder.path / "out.txt", "x")
+        return json.loads((tmp_path / "run.json").read_text())
+    first = run(False)
+    assert "earlier" not in first
+    second = run(True)
+    third = run(True)
+    assert [e["started"] for e in third["earlier"]] == [first["started"], second["started"]]
+    assert third["earlier"][0]["complete"] is True
+    assert third["earlier"][0]["source"] == first["source"]
+    assert "earlier" not in run(False)

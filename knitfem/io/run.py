@@ -26,7 +26,9 @@ Files that neither a manifest nor ``outputs`` names are never removed.
 ``source`` is the git commit of the knitfem checkout that ran (``modified``:
 tracked files differed from it), null for an installed copy: long relaxations
 are resumed across code versions, and "which code made this" must be
-answerable from the folder.
+answerable from the folder.  A ``--resume``d run (``parameters["resume"]``)
+keeps the processes before it in ``earlier`` (their start, end, source and
+whether they completed), oldest first.
 
 Use (a command with an ``--out`` option)::
 
@@ -93,6 +95,7 @@ class RunFolder:
         self.option = option
         self.files = []
         self.complete = False
+        self.earlier = []
         check_folder_writable(self.path, option)
 
     def stale(self):
@@ -115,16 +118,31 @@ class RunFolder:
         found.discard(manifest)
         return sorted(found)
 
+    def _previous(self):
+        """The processes a resumed run continues: the folder's manifest's own
+        ``earlier`` and that manifest itself."""
+        try:
+            previous = json.loads((self.path / MANIFEST).read_text())
+        except (OSError, ValueError):
+            return []
+        if not isinstance(previous, dict) or previous.get("command") != self.command:
+            return []
+        return list(previous.get("earlier", [])) + [
+            {key: previous.get(key) for key in ("started", "finished", "source", "complete")}]
+
     def _manifest(self, **extra):
         record = {"command": self.command, "version": _version(), "source": source(),
                   "parameters": self.parameters,
                   "files": [str(Path(f).relative_to(self.path)) if Path(f).is_relative_to(
                       self.path) else str(f) for f in self.files],
                   "complete": self.complete, "started": self.started}
+        if self.earlier:
+            record["earlier"] = self.earlier
         record.update(extra)
         return record
 
     def __enter__(self):
+        self.earlier = self._previous() if self.parameters.get("resume") else []
         for p in self.stale():
             p.unlink(missing_ok=True)
         self.started = _now()
