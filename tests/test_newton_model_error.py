@@ -43,13 +43,12 @@ def test_terms_add_up_to_the_energy_problem_and_each_hessian_is_its_forces_deriv
     # a small step along the Newton direction (1e-5 r): every term's force
     # changes as its Hessian predicts, to 5 % -- the beam's is the symmetric
     # part of the Simo-Reissner tangent, whose skew part grows with the
-    # unbalanced moments away from equilibrium (1.2e-4 at this state, 1.4 %
-    # at the one the minimiser reached before 76a3b6a), the co-rotated
+    # unbalanced moments away from equilibrium (3.5e-4 here), the co-rotated
     # friction's is exact to ~1e-3 of the frames' turn (README); a term given
-    # another's Hessian would be off by ~100 %.  The step is small because a
-    # tie near its pivot is strongly nonlinear: at 1e-3 r its remainder was
-    # 25 % (1e-4 r: 2.5 %, 1e-5 r: 0.25 %: the error falls with the step, the
-    # Hessian is exact).
+    # another's Hessian would be off by ~100 %.  The step is small so that
+    # the second-order remainder stays out of it: at 1e-3 r it made the beam's
+    # 1.4 % here, and a tie near its pivot 25 % at the state a minimiser with
+    # a faster-falling shift reached (1e-4 r: 2.5 %, 1e-5 r: 0.25 %).
     # The contact and friction act at this state.
     _, _, _, dx, _, _ = probe.newton_step(problem, state)
     dx *= 1e-5 * model.rods[0].section.radius / np.abs(dx).max()
