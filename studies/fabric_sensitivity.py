@@ -44,8 +44,8 @@ def finished_level(summary, cmd):
     from knitfem.cli import build_parser
     from knitfem.scenes.curl import check_same_run
     from knitfem.scenes.curl_command import protocol_of, scene_of
+    from knitfem.scenes.curl_paths import settle_due
     from knitfem.scenes.fabric import FabricScene
-    from knitfem.scenes.fabric_rounds import settle_due_after
     parsed = build_parser().parse_args(cmd[3:])
     finished = json.loads(summary.read_text())
     if parsed.paths is not None or finished.get("error") is not None:
@@ -58,15 +58,11 @@ def finished_level(summary, cmd):
                        finished.get("protocol"), scene_of(parsed), protocol_of(parsed))
     except ValueError as err:
         raise SystemExit(f"fabric_sensitivity: {err}") from None
-    settle_due = settle_due_after(finished, parsed.settle)
-    if settle_due and not (summary.parent / "checkpoint.npz").exists():
-        print(f"fabric_sensitivity: {summary.parent} has no checkpoint to settle from; its "
-              "answer is kept unsettled", file=sys.stderr)
-        settle_due = False
-    return None if settle_due else finished
+    return None if settle_due(finished, parsed.settle, summary.parent) else finished
 
 
 def run_level(args, level, extra):
+    from knitfem.cli import build_parser
     folder = args.out / f"{args.vary}={level}"
     summary = folder / f"curl_{args.nw}x{args.nc}.json"
     cmd = [sys.executable, "-m", "knitfem", "curl", "--nw", str(args.nw), "--nc", str(args.nc),
@@ -76,8 +72,8 @@ def run_level(args, level, extra):
         finished = finished_level(summary, cmd)
         if finished is not None:
             return finished
-    if args.resume and ((folder / "checkpoint.npz").exists() or "--paths" in extra
-                        or any(a.startswith("--paths=") for a in extra)):
+    if args.resume and ((folder / "checkpoint.npz").exists()
+                        or build_parser().parse_args(cmd[3:]).paths is not None):
         cmd.append("--resume")
     env = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1",
                OPENBLAS_NUM_THREADS="1")

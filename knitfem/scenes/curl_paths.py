@@ -80,13 +80,14 @@ def combine(summaries, names):
     return base
 
 
-def _settle_due(finished, options, folder):
-    """A finished path whose friction did not settle goes on (resumed from its
-    checkpoint) when ``options`` ask for more settle passes than it has run;
-    without its checkpoint it is kept as it is, with a warning (rerun from
-    nothing it would not be the same path)."""
+def settle_due(finished, settle, folder):
+    """A finished run (its summary ``finished``, in ``folder``) whose friction
+    did not settle goes on (resumed from its checkpoint) when ``settle`` asks
+    for more settle passes than it has run; without its checkpoint it is kept
+    as it is, with a warning (rerun from nothing it would not be the same path).
+    One rule for ``--paths`` and the studies that resume finished runs."""
     from .fabric_rounds import settle_due_after
-    due = settle_due_after(finished, options.get("settle"))
+    due = settle_due_after(finished, settle)
     if due and not (folder / "checkpoint.npz").exists():
         warnings.warn(f"--settle: {folder} has no checkpoint to continue; its answer is kept "
                       "unsettled", stacklevel=3)
@@ -100,7 +101,7 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
     :data:`SCHEDULES`) and return :func:`combine`'s summary.  With ``out``
     each path writes into ``out/path_<name>/`` (its own checkpoint: ``resume``
     continues each; a path whose answer is already there is not rerun -- unless
-    it failed, or settle passes are due (:func:`_settle_due`) -- and one of
+    it failed, or settle passes are due (:func:`settle_due`) -- and one of
     another scene or protocol is refused like a checkpoint) and
     the combined summary goes to ``out/curl_<nw>x<nc>.json``."""
     from .curl import check_same_run, curl
@@ -118,7 +119,7 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
                            finished.get("protocol"), scene, options)
             # a failed path goes on from its checkpoint (a resume may have
             # raised its round budget: README, "A snap near lam 0.8")
-            if finished.get("error") is None and not _settle_due(finished, options, folder):
+            if finished.get("error") is None and not settle_due(finished, options.get("settle"), folder):
                 summaries.append(finished)
                 continue
         summaries.append(curl(scene, out=folder, render=render, progress=progress,
