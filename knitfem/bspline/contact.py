@@ -87,7 +87,11 @@ def candidate_pairs(points, yarn, arclength, law, reach=None, self_contact=None)
     keep = ~same | (np.abs(arclength[a] - arclength[b]) > law.exclude)
     if self_contact is not None:
         keep &= ~same | np.asarray(self_contact, bool)[yarn[a]]
-    return pairs[keep]
+    pairs = pairs[keep]
+    # in sample order, not the tree's: the energy, summed pair by pair, is then a
+    # function of the points alone and not of where a Verlet list was built, so a
+    # relaxation resumed from a checkpoint repeats an unbroken one bit for bit
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
 class PairCache:

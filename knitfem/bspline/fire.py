@@ -10,12 +10,48 @@ mass, which evens out the stiff stretching and the soft sliding and bending
 of a knit.  The masses are refreshed when the step has had to shrink
 ``refresh`` times (the contact stiffness grows as yarns press in).  Only the
 end state matters, so neither the masses nor the path are physical.
+
+A relaxation can stop and go on: :class:`FireState` is everything carried
+from one step to the next, so a run resumed from the state after step k takes
+bit for bit the steps of one that never stopped (the energy is a function
+of y alone).
 """
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from .relax import Relaxed, RelaxationError, converged, progress_bar, step_numbers
+
+
+class FireState(NamedTuple):
+    """FIRE after ``step`` steps: positions y, velocities v, masses m, step dt,
+    mixing a, the counters (steps of positive power, step cuts since the masses
+    were set, capped steps, mass refreshes) and the residuals checked so far."""
+    y: np.ndarray
+    v: np.ndarray
+    m: np.ndarray
+    dt: float
+    a: float
+    n_pos: int
+    cuts: int
+    step: int
+    capped: int
+    refreshes: int
+    history: tuple
+
+    def arrays(self):
+        """The state as a dict of numpy arrays (for ``np.savez``)."""
+        return {k: np.asarray(v) for k, v in self._asdict().items()}
+
+    @classmethod
+    def from_arrays(cls, arrays):
+        """The inverse of :meth:`arrays` (any mapping of the same keys)."""
+        f = {k: arrays[k] for k in cls._fields}
+        return cls(*(np.array(f[k], float) for k in ("y", "v", "m")),
+                   float(f["dt"]), float(f["a"]),
+                   *(int(f[k]) for k in ("n_pos", "cuts", "step", "capped", "refreshes")),
+                   tuple(float(h) for h in np.atleast_1d(f["history"])))
 
 
 def gershgorin_masses(model, y, floor=1e-12):
@@ -28,31 +64,48 @@ def gershgorin_masses(model, y, floor=1e-12):
 
 def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20,
                f_inc=1.1, f_dec=0.5, a_start=0.25, f_a=0.99, refresh=20, check_every=20,
-               max_move=None, max_time=None, progress=False, monitor=None):
+               max_move=None, max_time=None, progress=False, monitor=None, state=None,
+               checkpoint=None, checkpoint_every=600.0):
     """FIRE 2.0 to a relative residual ``rtol`` (:func:`.relax.converged`);
     :class:`Relaxed` (method "fire") or :class:`RelaxationError` with the
-    last state after ``max_steps`` (None: no step limit) or ``max_time`` seconds.  dt in units of
-    the Gershgorin step (1 is stable); max_move: largest control-point move
-    per step (default r/4 of the contact law: no yarn jumps through another
+    last state after ``max_steps`` (None: no step limit; counted from the
+    first step of a resumed run) or ``max_time`` seconds (this call's).  dt in
+    units of the Gershgorin step (1 is stable); max_move: largest control-point
+    move per step (default r/4 of the contact law: no yarn jumps through another
     between two force evaluations; the velocity is scaled down to keep it);
-    monitor(step, y, residual, E, ke) at every check."""
+    monitor(step, y, residual, E, ke) at every check.  state: a
+    :class:`FireState` to go on from (y0 is then ignored); checkpoint(state)
+    is called at a check at most every ``checkpoint_every`` seconds and once
+    more on the way out, however it ends (converged, a limit, an
+    interruption: then with the state of the last check)."""
     start = time.perf_counter()
-    y = np.asarray(y0, float).copy()
     if max_move is None:
         contact = getattr(model, "contact", None)
         max_move = 0.25 * contact.radius if contact is not None else np.inf
     Z, _ = model.reduction()
-    capped = refreshes = 0
-    m = gershgorin_masses(model, y)
-    v = np.zeros_like(y)
-    dt, a = 0.5 * dt_max, a_start
-    n_pos = 0
-    cuts = 0
-    history = []
+    if state is None:
+        y = np.asarray(y0, float).copy()
+        m = gershgorin_masses(model, y)
+        v = np.zeros_like(y)
+        dt, a, n_pos, cuts, first, capped, refreshes, history = \
+            0.5 * dt_max, a_start, 0, 0, 1, 0, 0, []
+    else:
+        y, v, m = state.y.copy(), state.v.copy(), state.m.copy()
+        dt, a, n_pos, cuts, capped, refreshes = (state.dt, state.a, state.n_pos, state.cuts,
+                                                 state.capped, state.refreshes)
+        first, history = state.step + 1, list(state.history)
+    step = first - 1
+
+    def snapshot():
+        return FireState(y.copy(), v.copy(), m, dt, a, n_pos, cuts, step, capped, refreshes,
+                         tuple(history))
+
+    last = snapshot() if state is None else state
+    saved_at = start
     bar = progress_bar(progress, max_steps, "FIRE")
     E, g, ref = model.reduced_energy(y)
     try:
-        for step in step_numbers(max_steps, max_time):
+        for step in step_numbers(max_steps, max_time, first):
             F = -g
             P = F @ v
             if P > 0:
@@ -83,24 +136,36 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
             y += dt * v
             E, g, ref = model.reduced_energy(y)
             if not np.isfinite(E):
-                raise RelaxationError(f"FIRE diverged at step {step}", y - dt * v, history)
-            if step % check_every == 0 or converged(g, ref, rtol, model):
+                raise RelaxationError(f"FIRE diverged at step {step}", y - dt * v, history,
+                                      step)
+            done = converged(g, ref, rtol, model)
+            if step % check_every == 0 or done:
                 r = float(np.linalg.norm(g) / ref)
                 history.append(r)
+                last = snapshot()
                 ke = 0.5 * float(v @ (m * v))
                 if monitor is not None:
                     monitor(step, y, r, E, ke)
                 if bar is not None:
                     bar.update(check_every)
                     bar.set_postfix(residual=f"{r:.1e}", dt=f"{dt:.2f}")
-                if converged(g, ref, rtol, model):
+                if done:
                     return Relaxed(y, step, r, E, "fire", history, dt, v,
                                    report={"capped_steps": capped, "mass_refreshes": refreshes})
-                if max_time is not None and time.perf_counter() - start > max_time:
+                now = time.perf_counter()
+                if checkpoint is not None and now - saved_at >= checkpoint_every:
+                    checkpoint(last)
+                    saved_at = now
+                if max_time is not None and now - start > max_time:
                     raise RelaxationError(f"FIRE reached its time limit {max_time:.0f} s at "
-                                          f"step {step}, relative residual {r:.2e}", y, history)
+                                          f"step {step}, relative residual {r:.2e}", y, history,
+                                          step)
+        last = snapshot()                           # the step limit: after its last step
     finally:
         if bar is not None:
             bar.close()
+        if checkpoint is not None:
+            checkpoint(last)
     raise RelaxationError(f"FIRE did not reach relative residual {rtol:.1e} in {max_steps} "
-                          f"steps (last {history[-1]:.2e})", y, history)
+                          f"steps (last {history[-1] if history else float('nan'):.2e})", y,
+                          history, step)

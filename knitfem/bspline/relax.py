@@ -34,10 +34,11 @@ class RelaxationError(RuntimeError):
     """Relaxation did not converge; ``y`` is the last state, ``history`` the
     relative residuals seen."""
 
-    def __init__(self, message, y, history):
+    def __init__(self, message, y, history, iterations=None):
         super().__init__(message)
         self.y = y
         self.history = list(history)
+        self.iterations = iterations      # steps taken, where the method counts them
 
 
 @dataclass
@@ -54,15 +55,15 @@ class Relaxed:
     report: object = field(default=None, repr=False)
 
 
-def step_numbers(max_steps, max_time):
-    """The steps 1, 2, ... of a relaxation: up to ``max_steps``, or without
-    end (None) when a time limit ``max_time`` ends it instead."""
+def step_numbers(max_steps, max_time, first=1):
+    """The steps first, first + 1, ... of a relaxation: up to ``max_steps``, or
+    without end (None) when a time limit ``max_time`` ends it instead."""
     if max_steps is None:
         if max_time is None:
             raise ValueError("max_steps: a relaxation needs a step limit (a positive integer) "
                              "or a time limit max_time; got neither")
-        return itertools.count(1)
-    return range(1, int(max_steps) + 1)
+        return itertools.count(first)
+    return range(first, int(max_steps) + 1)
 
 
 def progress_bar(progress, total, desc):

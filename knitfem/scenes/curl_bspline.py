@@ -21,13 +21,16 @@ motions lifted (:mod:`knitfem.bspline.stability`).  Curl: the shared output
 analysis :func:`knitfem.analysis.curl.swatch_curl` on the deformed yarn points.
 Units: mm, g, s; angles in degrees.
 """
+from dataclasses import asdict
+import json
 import time
+import warnings
 
 import numpy as np
 
 from ..bspline import RelaxationError, relax_dynamic, relax_newton, stability
 from ..bspline.contact import overlap
-from ..bspline.fire import relax_fire
+from ..bspline.fire import FireState, relax_fire
 from ..bspline.relax import converged
 from .swatch_bspline import YarnConstants, bspline_swatch, prestretch
 
@@ -68,23 +71,31 @@ def _check_count(name, value, minimum):
 
 
 def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_steps=None,
-                 newton=True, newton_rtol=1e-8, newton_steps=50, progress=False, monitor=None):
+                 newton=True, newton_rtol=1e-8, newton_steps=50, progress=False, monitor=None,
+                 state=None, checkpoint=None, checkpoint_every=600.0):
     """Relax a prestretched :class:`~.swatch_bspline.BSplineSwatch` from its
     knitted shape; returns (y, info dict: converged, residual, iterations,
     method, history, oscillations, message).  max_steps: a step limit besides
     the time limit (None: none; a step limit repeats bit for bit, a time limit
-    depends on the machine's load).  monitor(step, y, residual, E, ke)."""
+    depends on the machine's load).  monitor(step, y, residual, E, ke).
+    FIRE only: state, a :class:`~knitfem.bspline.fire.FireState` to go on
+    from; checkpoint(state) every ``checkpoint_every`` seconds and at the end
+    (:func:`~knitfem.bspline.fire.relax_fire`)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if method != "fire" and (state is not None or checkpoint is not None):
+        raise ValueError(f"checkpoints and resuming need method 'fire', got {method!r} (the "
+                         "dynamic relaxation keeps no state to go on from)")
     model = bswatch.model
-    y = model.reduce(model._initial())
+    y = model.reduce(model._initial()) if state is None else state.y
     start = time.perf_counter()
     info = {"method": method, "converged": False, "message": "", "oscillations": 0}
     steps = None if max_steps is None else int(max_steps)
     try:
         if method == "fire":
             result = relax_fire(model, y, rtol=rtol, max_steps=steps, max_time=max_time,
-                                progress=progress, monitor=monitor)
+                                progress=progress, monitor=monitor, state=state,
+                                checkpoint=checkpoint, checkpoint_every=checkpoint_every)
         else:
             result = relax_dynamic(model, y, rtol=rtol, max_steps=steps, max_time=max_time,
                                    damping=bswatch.constants.damping_rate, kinetic=False,
@@ -94,7 +105,8 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
         info["converged"] = True
     except RelaxationError as err:
         y, info["history"], info["message"] = err.y, err.history, str(err)
-        info["iterations"] = len(err.history) * 20
+        info["iterations"] = err.iterations if err.iterations is not None \
+            else len(err.history) * 20
     info["relax_s"] = time.perf_counter() - start
     if newton and info["converged"]:
         try:
@@ -116,8 +128,8 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
 
 def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_loop=16,
                  method="fire", rtol=1e-6, newton=True, max_time=1800.0, max_steps=None,
-                 constants=None,
-                 bindoff_stiffness=10.0, out=None, name=None, progress=True, trace=False):
+                 constants=None, bindoff_stiffness=10.0, out=None, name=None, progress=True,
+                 trace=False, resume=False, checkpoint=True, checkpoint_every=600.0):
     """Curl of an nw x nc plain-knit swatch in the B-spline model: issue 9's
     JSON keys (dict) plus "constants", "energy", "method", "message" and the
     relaxation history.  Fields the model cannot measure are None (here every
@@ -126,7 +138,15 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     reproducible where a time limit is not).  out: a folder for the relaxed centrelines
     (.vtu), control points (.npy) and the summary (JSON), file names
     ``name`` (default ``bspline_<nw>x<nc>``).  trace: also return the relaxation's
-    :class:`Trace` rows and shapes under "trace"."""
+    :class:`Trace` rows and shapes under "trace".
+
+    With ``out``, FIRE and ``checkpoint``, the relaxation's state goes to
+    ``<name>_checkpoint.npz`` every ``checkpoint_every`` seconds and when it
+    ends (however: a limit, an interruption); ``resume=True`` goes on from it
+    (the same swatch and constants, else ValueError naming what differs; no
+    checkpoint: from the start), bit for bit the steps of an unbroken run.
+    Then max_time is this call's, max_steps and "iterations" count from the
+    first run's first step and "relax_s" sums every run's relaxation."""
     nw = _check_count("nw", nw, 3)
     nc = _check_count("nc", nc, 4)
     if max_steps is not None:
@@ -142,10 +162,20 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
                         constants=constants, bindoff_stiffness=bindoff_stiffness)
     prestretch(bs, alpha)
     monitor = Trace(bs) if trace else None
+    name = name or f"bspline_{nw}x{nc}"
+    run = _Checkpoints(out if checkpoint else None, name, method, resume, {
+        "nw": nw, "nc": nc, "alpha": alpha, "w": float(w), "c": float(c),
+        "radius": float(radius), "segments_per_loop": int(segments_per_loop),
+        "bindoff_stiffness": float(bindoff_stiffness), "method": method, "rtol": float(rtol),
+        "constants": asdict(constants)})
     y, info = relax_swatch(bs, method=method, rtol=rtol, max_time=max_time,
                            max_steps=max_steps, newton=newton, progress=progress,
-                           monitor=monitor)
+                           monitor=monitor, state=run.state, checkpoint=run.save_or_none,
+                           checkpoint_every=checkpoint_every)
     summary = summarise(bs, y, info)
+    summary["relax_s"] += run.earlier_s
+    summary["processes"] = run.processes + 1
+    summary["resumed_from_step"] = None if run.state is None else run.state.step
     summary["elapsed_s"] = time.perf_counter() - t0
     if trace:
         summary["trace"] = {"rows": monitor.rows, "shapes": monitor.shapes}
@@ -154,14 +184,67 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     return summary
 
 
+class _Checkpoints:
+    """The FIRE checkpoint ``<out>/<name>_checkpoint.npz`` of one swatch
+    (``scene``: what must match to resume): ``state`` to go on from (None:
+    from the start), ``save(state)`` for :func:`relax_fire`, the relaxation
+    seconds and the number of the runs before this one."""
+
+    def __init__(self, out, name, method, resume, scene):
+        from pathlib import Path
+        self.path = Path(out) / f"{name}_checkpoint.npz" if out is not None else None
+        self.scene = json.dumps(scene, sort_keys=True)
+        self.state, self.earlier_s, self.processes = None, 0.0, 0
+        self.start = time.perf_counter()
+        if resume and (self.path is None or method != "fire"):
+            raise ValueError("resume needs out (the folder holding the checkpoint) and method "
+                             f"'fire' (got out={out!r}, method={method!r})")
+        if self.path is None or method != "fire":
+            self.path = None
+        elif resume and self.path.exists():
+            self._load()
+        elif resume:
+            warnings.warn(f"resume: {self.path} does not exist; relaxing from the start")
+        elif self.path.exists():
+            self.path.unlink()                 # a stale run's: never resumed by mistake
+
+    def _load(self):
+        with np.load(self.path) as saved:
+            kept = json.loads(str(saved["scene"]))
+            given = json.loads(self.scene)
+            if kept != given:
+                differ = ", ".join(f"{k}: checkpoint {kept.get(k)!r}, given {given.get(k)!r}"
+                                   for k in sorted(set(kept) | set(given))
+                                   if kept.get(k) != given.get(k))
+                raise ValueError(f"resume: {self.path} holds a run with other parameters "
+                                 f"({differ}); remove it or give the same options")
+            self.state = FireState.from_arrays(saved)
+            self.earlier_s = float(saved["relax_s"])
+            self.processes = int(saved["processes"])
+
+    def save(self, state):
+        from ..io.atomic import atomic_path
+        relax_s = self.earlier_s + time.perf_counter() - self.start
+        with atomic_path(self.path) as tmp:
+            np.savez(tmp, scene=np.array(self.scene), relax_s=relax_s,
+                     processes=self.processes + 1, **state.arrays())
+
+    @property
+    def save_or_none(self):
+        """:meth:`save`, or None where nothing is kept (no out, not FIRE)."""
+        return self.save if self.path is not None else None
+
+
 def bspline_curl_from_options(args):
     """``knitfem curl --model bspline``: :func:`bspline_curl` from the validated
-    options (``--max-time``, default 1800 s); writes into ``--out`` when given."""
+    options (``--max-time``, default 1800 s); writes into ``--out`` when given,
+    with its checkpoint, from which ``--resume`` goes on."""
     from .swatch_bspline import YarnConstants
     return bspline_curl(args.nw, args.nc, alpha=args.alpha, w=args.w, c=args.c,
                         radius=args.radius, bindoff_stiffness=args.bindoff_stiffness,
                         constants=YarnConstants(ea_over_ei=float(args.ea_over_ei)),
-                        max_time=args.max_time, out=args.out, progress=not args.quiet)
+                        max_time=args.max_time, out=args.out, progress=not args.quiet,
+                        resume=getattr(args, "resume", False))
 
 
 def summarise(bs, y, info):

@@ -88,9 +88,6 @@ def _yarn_fits(v):
 def _resume_needs_out(v):
     if getattr(v, "resume", False) and not getattr(v, "out", None):
         refuse("--resume", "needs --out (the folder holding the checkpoint)", True)
-    if getattr(v, "resume", False) and _bspline(v):
-        refuse("--resume", "applies to --model beam only (the bspline relaxation keeps no "
-               "checkpoint)", True)
 
 
 RESUME = Check(_resume_needs_out)     # knitfem curl's own (not a sweep study's --resume)
@@ -179,6 +176,10 @@ OPTIONS = OptionSet(
 def outputs(args):
     """The files of a run (stale ones are removed first); a resumed run keeps its
     checkpoint and the relaxation path written so far."""
+    if _bspline(args):
+        name = f"bspline_{args.nw}x{args.nc}"
+        final = (f"{name}.vtu", f"{name}.json", f"{name}_control.npy")
+        return final if args.resume else final + (f"{name}_checkpoint.npz",)
     name = f"curl_{args.nw}x{args.nc}"
     final = (f"{name}.vtu", f"{name}.json", f"{name}_*.png")
     run = ("checkpoint.npz", "path/step_*.vtu", "path/path.pvd")

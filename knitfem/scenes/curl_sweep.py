@@ -65,8 +65,9 @@ def _bspline(nw, nc, options, out_dir):
     options = _options(options, BSPLINE_OPTIONS, "bspline")
     ea = options.pop("ea_over_ei", None)
     constants = YarnConstants() if ea is None else YarnConstants(ea_over_ei=float(ea))
+    # a point is one timed run (--max-time): nothing to go on from
     return bspline_curl(nw, nc, constants=constants, out=out_dir, progress=False,
-                        name="curl", **options)
+                        name="curl", checkpoint=False, **options)
 
 
 def _beam(nw, nc, options, out_dir, work_dir=None):
