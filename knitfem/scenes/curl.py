@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.atomic import write_json
+from ..io.run import source
 from .fabric import FabricScene, Homotopy, build, yarn_axial_strain
 from .fabric_relax import FabricRelaxationError, relax_fabric
 from .fabric_rounds import SNAP_ROUNDS, settle_passes
@@ -297,6 +299,8 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         # the pre-stretch the knit yarn still holds at the answer (or last equilibrium)
         "yarn_axial_strain": dict(zip(("median", "max"), yarn_axial_strain(model, eq.state))),
         "error": None if failure is None else str(failure),
+        # the code that made it (a resumed run: the last process's; run.json has all)
+        "source": source(),
     }
     if out is not None:
         _write_outputs(out, model, eq, summary, frames, render)
@@ -318,7 +322,7 @@ def _write_outputs(out, model, eq, summary, frames, render):
         render_views({view: out / f"{name}_{view}.png" for view in VIEWS},
                      beam_mesh(model, eq.state), min(r.section.radius for r in model.rods),
                      title)
-    (out / f"{name}.json").write_text(json.dumps(summary, indent=2))
+    write_json(out / f"{name}.json", summary)
 
 
 def frame_times(lams):

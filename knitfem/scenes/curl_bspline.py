@@ -32,6 +32,7 @@ from ..bspline import RelaxationError, relax_dynamic, relax_newton, stability
 from ..bspline.contact import overlap
 from ..bspline.fire import FireState, relax_fire
 from ..bspline.relax import converged
+from ..io.run import source
 from .swatch_bspline import YarnConstants, bspline_swatch, prestretch
 
 METHODS = ("fire", "dynamic")
@@ -176,6 +177,7 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     summary["relax_s"] += run.earlier_s
     summary["processes"] = run.processes + 1
     summary["resumed_from_step"] = None if run.state is None else run.state.step
+    summary["source"] = source()
     summary["elapsed_s"] = time.perf_counter() - t0
     if trace:
         summary["trace"] = {"rows": monitor.rows, "shapes": monitor.shapes}
@@ -288,8 +290,8 @@ def write_curl(bs, y, summary, out, name=None):
     """Write the relaxed yarns (``<name>.vtu``), their control points
     (``<name>_control.npy``, to resume or polish) and the summary
     (``<name>.json``) to folder ``out``; name: default ``bspline_<nw>x<nc>``."""
-    import json
     from pathlib import Path
+    from ..io.atomic import atomic_path, write_json
     from ..io.vtk import curve_mesh, write_mesh
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -301,5 +303,6 @@ def write_curl(bs, y, summary, out, name=None):
                                            enumerate(curves)]})
     name = name or f"bspline_{summary['nw']}x{summary['nc']}"
     write_mesh(out / f"{name}.vtu", mesh)
-    np.save(out / f"{name}_control.npy", model.control_points(y))
-    (out / f"{name}.json").write_text(json.dumps(summary, indent=1))
+    with atomic_path(out / f"{name}_control.npy") as tmp:
+        np.save(tmp, model.control_points(y))
+    write_json(out / f"{name}.json", summary, indent=1)

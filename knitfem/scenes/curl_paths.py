@@ -16,6 +16,8 @@ import json
 import warnings
 from pathlib import Path
 
+from ..io.atomic import write_json
+from ..io.run import source
 from .fabric_relax import DLAM, DLAM_MAX
 
 # homotopy increments: first step and largest step (relax_fabric's dlam, dlam_max)
@@ -125,6 +127,7 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
         summaries.append(curl(scene, out=folder, render=render, progress=progress,
                               resume=resume, relax_options=options))
     summary = combine(summaries, names)
+    summary["source"] = source()
     if out is not None:
-        (out / f"curl_{scene.nw}x{scene.nc}.json").write_text(json.dumps(summary, indent=2))
+        write_json(out / f"curl_{scene.nw}x{scene.nc}.json", summary)
     return summary
