@@ -103,3 +103,75 @@ def test_cli_bspline_resume_goes_on_from_the_checkpoint(tmp_path, capsys):
     second = json.loads(js.read_text())
     assert second["resumed_from_step"] >= first["iterations"] - 20 > 0
     assert second["processes"] == 2
+
+
+def test_a_resume_repeats_mass_refreshes_and_a_converged_run_stops_where_it_was(tmp_path):
+    """FIRE at the library level, its step allowed up to twice the stable one
+    so that it overshoots, cuts and refreshes its masses after every 2 cuts:
+    the resumed half, with a fresh model (its Verlet list built at the
+    checkpoint, not where the unbroken run built it), refreshes the
+    Gershgorin masses (the contact Hessian) and still repeats the unbroken run
+    bit for bit; resuming from a converged state returns it at once."""
+    from knitfem.bspline.fire import relax_fire
+    from knitfem.bspline.relax import RelaxationError
+    from knitfem.scenes.swatch_bspline import bspline_swatch, prestretch
+
+    def model():
+        bs = bspline_swatch(4, 4)
+        prestretch(bs, 0.2)
+        return bs.model
+
+    def run(m, **kw):
+        saved = []
+        with pytest.raises(RelaxationError):
+            relax_fire(m, m.reduce(m._initial()), refresh=2, dt_max=2.0,
+                       checkpoint=saved.append, **kw)
+        return saved[-1]
+
+    whole = run(model(), max_steps=200)
+    half = run(model(), max_steps=100)
+    assert half.refreshes < whole.refreshes              # a refresh after the resume point
+    again = run(model(), max_steps=200, state=half)
+    assert again.step == whole.step == 200
+    assert np.array_equal(again.y, whole.y) and np.array_equal(again.m, whole.m)
+    with pytest.raises(ValueError, match="max_steps must be > 100"):
+        relax_fire(model(), None, max_steps=100, state=half)
+    m = model()
+    done = relax_fire(m, m.reduce(m._initial()), rtol=1.0, max_steps=100)   # at once
+    state = FireState(done.y, done.velocity, np.ones_like(done.y), 1.0, 0.1, 0, 0,
+                      done.iterations, 0, 0, tuple(done.history))
+    resumed = relax_fire(m, None, rtol=1.0, max_steps=100, state=state)
+    assert resumed.iterations == done.iterations and np.array_equal(resumed.y, done.y)
+
+
+def test_energy_gradient_and_hessian_do_not_depend_on_where_the_verlet_list_was_built(rng):
+    """At one state, with the candidate-pair list built there or at points up
+    to 0.09 mm away (within half the skin: no rebuild), the energy, gradient
+    and Hessian are the same bit for bit (the pairs in sample order, the
+    Hessian assembled from the touching pairs only)."""
+    from knitfem.bspline.fire import relax_fire
+    from knitfem.bspline.relax import RelaxationError
+    from knitfem.scenes.swatch_bspline import bspline_swatch, prestretch
+    bs = bspline_swatch(4, 4)
+    prestretch(bs, 0.2)
+    m = bs.model
+    with pytest.raises(RelaxationError) as err:            # a state with many contacts
+        relax_fire(m, m.reduce(m._initial()), max_steps=200)
+    y = err.value.y
+    pts = m._at_samples(m.control_points(y))
+    m._pairs.points = None
+    m._pairs(pts)                                          # built at the state itself
+    E0, g0, _ = m.reduced_energy(y)
+    H0 = m.reduced_hessian(y).toarray()
+    differ = 0
+    for _ in range(6):
+        m._pairs.points = None
+        shift = rng.uniform(-1.0, 1.0, pts.shape) * 0.09 / np.sqrt(3.0)
+        m._pairs(pts + shift)                              # built elsewhere
+        builds = m._pairs.builds
+        E, g, _ = m.reduced_energy(y)
+        H = m.reduced_hessian(y).toarray()
+        assert m._pairs.builds == builds                   # and used: not rebuilt here
+        assert E == E0 and np.array_equal(g, g0)
+        differ += not np.array_equal(H, H0)
+    assert differ == 0

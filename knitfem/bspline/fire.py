@@ -18,6 +18,7 @@ of y alone).
 """
 import time
 from typing import NamedTuple
+import warnings
 
 import numpy as np
 
@@ -90,6 +91,10 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
         dt, a, n_pos, cuts, first, capped, refreshes, history = \
             0.5 * dt_max, a_start, 0, 0, 1, 0, 0, []
     else:
+        if max_steps is not None and max_steps <= state.step:
+            raise ValueError(f"max_steps must be > {state.step}, the steps the state was "
+                             f"taken after (steps count from the first run's first), got "
+                             f"{max_steps}")
         y, v, m = state.y.copy(), state.v.copy(), state.m.copy()
         dt, a, n_pos, cuts, capped, refreshes = (state.dt, state.a, state.n_pos, state.cuts,
                                                  state.capped, state.refreshes)
@@ -102,8 +107,12 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
 
     last = snapshot() if state is None else state
     saved_at = start
-    bar = progress_bar(progress, max_steps, "FIRE")
     E, g, ref = model.reduced_energy(y)
+    if state is not None and converged(g, ref, rtol, model):
+        # where an unbroken run stopped (a converged run's last checkpoint)
+        return Relaxed(y, step, float(np.linalg.norm(g) / ref), E, "fire", history, dt, v,
+                       report={"capped_steps": capped, "mass_refreshes": refreshes})
+    bar = progress_bar(progress, max_steps, "FIRE", initial=first - 1)
     try:
         for step in step_numbers(max_steps, max_time, first):
             F = -g
@@ -165,7 +174,10 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
         if bar is not None:
             bar.close()
         if checkpoint is not None:
-            checkpoint(last)
+            try:
+                checkpoint(last)
+            except Exception as err:       # never at the cost of the answer or its error
+                warnings.warn(f"FIRE: the last checkpoint was not written: {err}")
     raise RelaxationError(f"FIRE did not reach relative residual {rtol:.1e} in {max_steps} "
                           f"steps (last {history[-1] if history else float('nan'):.2e})", y,
                           history, step)

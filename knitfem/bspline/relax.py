@@ -66,13 +66,14 @@ def step_numbers(max_steps, max_time, first=1):
     return range(first, int(max_steps) + 1)
 
 
-def progress_bar(progress, total, desc):
+def progress_bar(progress, total, desc, initial=0):
     """A tqdm bar over ``total`` steps (a count and rate only, no percentage
-    or ETA, when ``total`` is None), or None when ``progress`` is off."""
+    or ETA, when ``total`` is None) starting at ``initial`` (a resumed run's
+    steps so far), or None when ``progress`` is off."""
     if not progress:
         return None
     from tqdm import tqdm
-    return tqdm(total=total, desc=desc, unit="step", leave=False)
+    return tqdm(total=total, desc=desc, unit="step", leave=False, initial=initial)
 
 
 def _residual(model, y):

@@ -186,6 +186,12 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     return summary
 
 
+def _commit():
+    """The git commit knitfem runs from ('' when not known; '+' marks local changes)."""
+    made = source()
+    return "" if made is None else made["commit"] + ("+" if made["modified"] else "")
+
+
 class _Checkpoints:
     """The FIRE checkpoint ``<out>/<name>_checkpoint.npz`` of one swatch
     (``scene``: what must match to resume): ``state`` to go on from (None:
@@ -199,8 +205,8 @@ class _Checkpoints:
         self.state, self.earlier_s, self.processes = None, 0.0, 0
         self.start = time.perf_counter()
         if resume and (self.path is None or method != "fire"):
-            raise ValueError("resume needs out (the folder holding the checkpoint) and method "
-                             f"'fire' (got out={out!r}, method={method!r})")
+            raise ValueError("resume needs out (the folder holding the checkpoint), checkpoint "
+                             f"on and method 'fire' (got out={out!r}, method={method!r})")
         if self.path is None or method != "fire":
             self.path = None
         elif resume and self.path.exists():
@@ -223,13 +229,20 @@ class _Checkpoints:
             self.state = FireState.from_arrays(saved)
             self.earlier_s = float(saved["relax_s"])
             self.processes = int(saved["processes"])
+            made_by = str(saved["source"]) if "source" in saved.files else ""
+            now = _commit()
+            if made_by != now:
+                # allowed (a fix may be what the resume is for), but not silent
+                warnings.warn(f"resume: {self.path} was written by code {made_by or 'unknown'}, "
+                              f"this is {now or 'unknown'}: the steps from here are this code's")
 
     def save(self, state):
         from ..io.atomic import atomic_path
         relax_s = self.earlier_s + time.perf_counter() - self.start
         with atomic_path(self.path) as tmp:
             np.savez(tmp, scene=np.array(self.scene), relax_s=relax_s,
-                     processes=self.processes + 1, **state.arrays())
+                     processes=self.processes + 1, source=np.array(_commit()),
+                     **state.arrays())
 
     @property
     def save_or_none(self):
