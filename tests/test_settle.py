@@ -13,6 +13,7 @@ from knitfem.scenes import curl as curl_module
 from knitfem.scenes import fabric_relax
 from knitfem.scenes.fabric import FabricScene, Homotopy, build
 from knitfem.scenes.fabric_rounds import settle_pass_due, settle_passes
+from test_fabric import stretched
 
 SCENE = FabricScene(3, 3, elements_per_loop=16)
 
@@ -24,7 +25,7 @@ def small():
 
 
 def _rounds(monkeypatch, moves, residuals=None, calls=None):
-    """Friction rounds moving every node by the next of ``moves`` (radii) and
+    """Friction rounds changing the swatch's shape by the next of ``moves`` (radii) and
     ending at the next of ``residuals`` (default 1e-9: converged)."""
     moves = iter(moves)
     residuals = iter(residuals if residuals is not None else [1e-9] * 1000)
@@ -38,7 +39,7 @@ def _rounds(monkeypatch, moves, residuals=None, calls=None):
         model.contact_model.anchor_friction(state.x, state.q)     # as _round does
         r = model.rods[0].section.radius
         result = Result()
-        result.state = type(state)(state.x + next(moves) * r, state.q.copy())
+        result.state = type(state)(stretched(state.x, next(moves) * r), state.q.copy())
         result.iterations, result.energy, result.stopped = 1, 0.0, False
         result.residual = next(residuals)
         result.converged = result.residual <= tol
@@ -85,7 +86,7 @@ def test_a_settle_pass_continues_a_finished_unsettled_answer(small, monkeypatch)
     assert [inc.iterations for inc in _final(eq)] == [8, 2]
     assert eq.iterations == 10 and settle_passes(eq.increments) == 1
     r = small.rods[0].section.radius
-    assert np.allclose(eq.state.x, first.state.x + 0.2 * r)
+    assert np.allclose(eq.state.x, stretched(first.state.x, 0.2 * r))
     calls.clear()
     _rounds(monkeypatch, [0.0], calls=calls)      # settled in the pass's first round
     eq = fabric_relax.relax_fabric(small, Homotopy(small, 0.05), first.state, lam=1.0,

@@ -48,3 +48,35 @@ def test_principal_extents_of_a_turned_box():
 def test_bad_positions_are_refused_by_name(bad):
     with pytest.raises(ValueError, match="x_from"):
         shape_change(bad, np.zeros((5, 3)))
+
+
+def test_a_friction_round_of_a_free_swatch_is_measured_without_its_rigid_motion():
+    """round_move (the fabric relaxation's settle test): node coordinates and
+    surface points (frame turn x arm).  A rigid motion of positions *and*
+    frames is no move for a free-floating scene, the whole of it for a held
+    one; a change of shape or a frame twisted on its own counts in both."""
+    from types import SimpleNamespace
+    from knitfem.beam.rotation import quat_exp, quat_multiply
+    from knitfem.scenes.fabric_rounds import round_move
+    rng = np.random.default_rng(3)
+    x = _cloud(120)
+    q = quat_exp(rng.normal(size=(120, 3)))
+    turn = Rotation.from_rotvec([0.3, -0.2, 0.5])
+    wxyz = np.roll(turn.as_quat(), 1)
+    moved_x = turn.apply(x) + [0.5, 0.1, -0.2]
+    moved_q = quat_multiply(np.broadcast_to(wxyz, q.shape), q)
+    old = SimpleNamespace(x=x, q=q)
+    rigid = SimpleNamespace(x=moved_x, q=moved_q)
+    assert round_move(old, rigid, 0.4, free=True) < 1e-9
+    assert round_move(old, rigid, 0.4, free=False) > 1.0
+    # one node pushed by 0.01 along y on top of the rigid motion: ~that push
+    # (the fit spreads it over the others by ~1/n)
+    pushed = moved_x.copy()
+    pushed[7, 1] += 0.01
+    change = round_move(old, SimpleNamespace(x=pushed, q=moved_q), 0.4, free=True)
+    assert change == pytest.approx(0.01, rel=0.02)
+    # one frame twisted by 0.05 rad about its own axis: a surface point moves 0.4 x 0.05
+    twisted = moved_q.copy()
+    twisted[11] = quat_multiply(quat_exp(np.array([[0.0, 0.0, 0.05]])), moved_q[11:12])[0]
+    change = round_move(old, SimpleNamespace(x=moved_x, q=twisted), 0.4, free=True)
+    assert change == pytest.approx(0.4 * 0.05, rel=1e-6)

@@ -30,14 +30,23 @@ def _positions(x, name):
     return x
 
 
-def shape_change(x_from, x_to):
-    """The node moves from ``x_from`` to ``x_to`` left after the rigid motion
-    that best carries one onto the other (same nodes, same order)."""
+def rigid_fit(x_from, x_to):
+    """The rigid motion that best carries ``x_from`` onto ``x_to`` (same nodes,
+    same order), x -> rotation (x - c_from) + c_to: (scipy ``Rotation``,
+    c_from, c_to), the centroids."""
     a, b = _positions(x_from, "x_from"), _positions(x_to, "x_to")
     if a.shape != b.shape:
         raise ValueError(f"x_from and x_to must hold the same nodes, got {a.shape} and {b.shape}")
     ca, cb = a.mean(axis=0), b.mean(axis=0)
     rotation, _ = Rotation.align_vectors(b - cb, a - ca)
+    return rotation, ca, cb
+
+
+def shape_change(x_from, x_to):
+    """The node moves from ``x_from`` to ``x_to`` left after the rigid motion
+    that best carries one onto the other (same nodes, same order)."""
+    rotation, ca, cb = rigid_fit(x_from, x_to)
+    a, b = np.asarray(x_from, float), np.asarray(x_to, float)
     moves = np.linalg.norm(rotation.apply(a - ca) + cb - b, axis=1)
     return ShapeChange(float(np.median(moves)), float(moves.max()),
                        float(np.degrees(rotation.magnitude())), float(np.linalg.norm(cb - ca)))

@@ -21,7 +21,9 @@ straight, pre-stretched yarn (lam = 1) in quasi-static increments:
    the last equilibrium and its friction anchors) when ``max_rounds`` rounds
    do not converge;
 4. at lam = 1 rounds go on until a converged round moves no node more than
-   ``creep`` (default 1e-3 r: the lagged normal forces have settled), or
+   ``creep`` (default 1e-3 r: the lagged normal forces have settled; a
+   free-floating swatch's moves after the rigid motion that best carries one
+   state onto the other, :func:`~.fabric_rounds.round_move`), or
    ``2 max_rounds`` rounds, the last of which converged; up to ``2 max_rounds``
    more while the rounds' final residuals keep halving (a contracting fixed
    point of the lagged friction: a smaller increment would only come back to
@@ -49,11 +51,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..beam.energy import EnergyProblem
-from ..beam.rotation import spatial_turn
 from ..solve.minimize import RelaxationError, minimize
 from ..solve.stability import inertia, lowest_scaled_eigenvalue
-from .fabric_rounds import (MAX_ROUNDS, SNAP_ROUNDS, another_round, settle_pass_due,
-                            smallest_radius)
+from .fabric_rounds import (MAX_ROUNDS, SNAP_ROUNDS, another_round, round_move,
+                            settle_pass_due, smallest_radius)
 
 # the homotopy's first increment and the largest it grows to (relax_fabric's defaults)
 DLAM, DLAM_MAX = 0.1, 0.25
@@ -247,11 +248,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
                                  ends=tuple(ends), moves=tuple(moves), early=early))
             continue
         ends.append(result.residual)
-        # a round that only turns frames has not settled either: turns count
-        # as the move of a point on the yarn's surface
-        turned = np.linalg.norm(spatial_turn(result.state.q, state.q), axis=1)
-        moved = max(float(np.max(np.abs(result.state.x - state.x))),
-                    arm * float(np.max(turned, initial=0.0)))
+        moved = round_move(state, result.state, arm, getattr(model, "_free_body", False))
         moves.append(moved)
         state = result.state
         if result.converged and (k >= min_rounds - 1) and moved <= creep:
