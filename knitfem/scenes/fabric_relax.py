@@ -100,7 +100,8 @@ class FabricEquilibrium:
     lowest_eigenvalue: float = float("nan")   # of the diagonally scaled tangent
     # the lagged friction reached its fixed point: the last round (re-anchored
     # at the state before it) moved no node (nor turned a yarn's surface) more
-    # than ``creep``; False when the final increment ended on its round budget
+    # than ``creep``, rigid motion of a free body aside (fabric_rounds.round_move);
+    # False when the final increment ended on its round budget
     # instead (the answer is then an equilibrium for the last round's anchors,
     # and another round would move it)
     friction_settled: bool = None             # None: unknown (failed, or an older checkpoint)
