@@ -821,6 +821,49 @@ def test_an_answer_whose_friction_did_not_settle_says_so(monkeypatch, move, sett
     assert eq.friction_settled is settled
     assert eq.last_round_move == pytest.approx(move * r)
     assert eq.increments[-1].iterations == (2 if settled else 8)
+    # a creep: two rounds carry the swatch twice as far as one
+    assert eq.two_round_move == pytest.approx(2.0 * move * r, abs=1e-12)
+
+
+def test_rounds_that_cycle_between_two_states_are_reported_as_a_cycle(monkeypatch, tmp_path):
+    """Rounds alternating between two shapes (each an equilibrium for the other's
+    anchors, as the 25 x 35 at alpha 0.3 did) are not settled, and the answer
+    says that two rounds apart nothing moved; the two-round move survives a
+    checkpoint (an older checkpoint without it reads as not measured)."""
+    import itertools
+    from knitfem.scenes import curl as curl_module
+    from knitfem.scenes.curl_command import _cycle_note
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
+    r = model.rods[0].section.radius
+    a = model.initial_state()
+    b = type(a)(stretched(a.x, 0.01 * r), a.q.copy())
+    states = itertools.cycle([b, a])
+
+    class Result:
+        pass
+
+    def cycling(model, state, lam, tol, iterations, progress=None, reanchor=None):
+        result = Result()
+        result.state = next(states)
+        result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
+        result.stopped = False
+        return result, np.inf
+    monkeypatch.setattr(fabric_relax, "_round", cycling)
+    eq = fabric_relax.relax_fabric(model, Homotopy(model, 0.05), a, dlam=1.0)
+    assert eq.friction_settled is False and eq.increments[-1].iterations == 8
+    assert eq.last_round_move == pytest.approx(0.01 * r) and eq.two_round_move == 0.0
+    summary = {"last_round_move_over_r": 0.01, "two_round_move_over_r": 0.0}
+    assert "cycle between two states" in _cycle_note(summary)
+    assert "a creep" in _cycle_note({"last_round_move_over_r": 0.01, "two_round_move_over_r": 0.02})
+    assert _cycle_note({"last_round_move_over_r": 0.01, "two_round_move_over_r": None}) == ""
+    path, scene = tmp_path / "checkpoint.npz", FabricScene(3, 3, elements_per_loop=16)
+    curl_module._save_checkpoint(path, scene, a, 1.0, 0.1, eq.increments, None)
+    kept = curl_module.load_checkpoint(path, scene, model)[3]
+    assert kept[-1].cycle == 0.0 and kept[-1].moved == eq.increments[-1].moved
+    data = dict(np.load(path))
+    data["increments"] = data["increments"][:, :8]                 # before the column
+    np.savez(path, **data)
+    assert np.isnan(curl_module.load_checkpoint(path, scene, model)[3][-1].cycle)
 
 
 def test_extra_final_rounds_survive_a_resume(monkeypatch, tmp_path):

@@ -42,7 +42,8 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
             "scene": json.dumps(scene.as_dict(), sort_keys=True),
             "protocol": json.dumps(protocol, sort_keys=True),
             "increments": np.array([[i.lam, i.iterations, i.residual, i.energy, i.min_gap,
-                                     i.seconds, i.accepted, i.moved] for i in increments])}
+                                     i.seconds, i.accepted, i.moved, i.cycle]
+                                    for i in increments])}
     anchors = [("", partial.equilibrium if partial is not None else
                 (contact.friction_state() if contact is not None else None))]
     if partial is not None:
@@ -148,10 +149,11 @@ def load_checkpoint(path, scene, model, protocol=None):
     if contact is not None and "anchor_key" in data.files:
         contact.restore_friction(friction(""))
     # (a checkpoint from before failed attempts were kept has six columns,
-    # from before the last round's move was kept seven)
+    # from before the last round's move was kept seven, its two-round move eight)
     increments = [Increment(float(r[0]), int(r[1]), *map(float, r[2:6]),
                             bool(r[6]) if len(r) > 6 else True,
-                            float(r[7]) if len(r) > 7 else float("nan"))
+                            float(r[7]) if len(r) > 7 else float("nan"),
+                            float(r[8]) if len(r) > 8 else float("nan"))
                   for r in data["increments"]]
     partial = None
     if "partial_x" in data.files:
@@ -284,6 +286,11 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
         "last_round_move_over_r": (eq.last_round_move / scene.radius
                                    if failure is None and np.isfinite(eq.last_round_move)
                                    else None),
+        # from the state two rounds before: small where the last round's move is
+        # not, the rounds cycle between two states (null: not measured)
+        "two_round_move_over_r": (eq.two_round_move / scene.radius
+                                  if failure is None and np.isfinite(eq.two_round_move)
+                                  else None),
         # passes of the final increment's rounds run for the friction to settle (--settle)
         "settle_passes": settle_passes(eq.increments),
         "dofs": info["free_dofs"], "iterations": eq.iterations,

@@ -254,6 +254,17 @@ def scene_of(args):
                        corotated_friction=(args.friction_frame or "corotated") == "corotated")
 
 
+def _cycle_note(summary):
+    """What the state two rounds before says of an unsettled answer."""
+    two = summary.get("two_round_move_over_r")
+    if two is None:
+        return ""
+    if two < 0.5 * summary["last_round_move_over_r"]:
+        return (f"; two rounds apart it moved {two:.3g}: the rounds cycle between two states, "
+                "each an equilibrium for the other's friction anchors")
+    return f"; two rounds apart it moved {two:.3g}: a creep, not a cycle"
+
+
 def run(args):
     """Run the validated ``curl`` command; exit code 0, or 3 when the relaxation failed
     or did not converge (the summary, saying so, is still written)."""
@@ -290,7 +301,8 @@ def run(args):
     if summary.get("friction_settled") is False:
         # an equilibrium, but for the last round's lagged friction anchors
         print(f"knitfem curl: the friction did not settle: its last round moved the swatch by "
-              f"{summary['last_round_move_over_r']:.3g} yarn radii (rounds budget spent); "
+              f"{summary['last_round_move_over_r']:.3g} yarn radii (rounds budget spent"
+              f"{_cycle_note(summary)}); "
               f"another round would move the answer (--resume --settle N runs more passes of "
               f"its rounds, up to N in all: {summary.get('settle_passes', 0)} run so far)",
               file=sys.stderr)

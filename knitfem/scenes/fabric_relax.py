@@ -82,6 +82,10 @@ class Increment:
     seconds: float
     accepted: bool = True   # False: an attempt that failed and was retried smaller
     moved: float = float("nan")   # largest node move of its last friction round (length)
+    # the same measure from the state two rounds before the answer (nan: fewer
+    # rounds in this process): small where ``moved`` is not, the rounds cycle
+    # between two states (README, "a rigid turn and a two-round cycle")
+    cycle: float = float("nan")
 
 
 @dataclass
@@ -106,6 +110,7 @@ class FabricEquilibrium:
     # and another round would move it)
     friction_settled: bool = None             # None: unknown (failed, or an older checkpoint)
     last_round_move: float = float("nan")     # length
+    two_round_move: float = float("nan")      # length (Increment.cycle of the last)
     # the share of the contacts' push taken back at maxima of the distance, where
     # two contacts along one master yarn overlap (see knitfem.contact.narrow)
     overlap_share: float = 0.0
@@ -228,6 +233,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     arm = smallest_radius(model) or 0.0
     early = start.early if start is not None else 0    # steps of rounds ended early
     k = first
+    two_back, cycle = None, np.nan        # the state before the last round's start
 
     def more():
         return another_round(k, ends, moves, arm, max_rounds, extra_rounds, snap_rounds)
@@ -249,9 +255,11 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
                                  ends=tuple(ends), moves=tuple(moves), early=early))
             continue
         ends.append(result.residual)
-        moved = round_move(state, result.state, arm, getattr(model, "_free_body", False))
+        free = getattr(model, "_free_body", False)
+        moved = round_move(state, result.state, arm, free)
         moves.append(moved)
-        state = result.state
+        cycle = round_move(two_back, result.state, arm, free) if two_back is not None else np.nan
+        two_back, state = state, result.state
         if result.converged and (k >= min_rounds - 1) and moved <= creep:
             break
         k += 1
@@ -275,7 +283,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
         return failed(f"no converged friction round at lam = {lam:.4g} in {k} rounds "
                       f"(residual {residual}){slide}")
     return result, Increment(lam, total, result.residual, result.energy, gap,
-                             before + time.perf_counter() - t, True, moved)
+                             before + time.perf_counter() - t, True, moved, cycle)
 
 
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=DLAM,
@@ -380,6 +388,7 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     final = [inc for inc in increments if inc.accepted and inc.lam == 1.0]
     if final and np.isfinite(final[-1].moved):
         eq.last_round_move = final[-1].moved
+        eq.two_round_move = final[-1].cycle
         eq.friction_settled = bool(final[-1].moved <= creep)
     return eq
 
