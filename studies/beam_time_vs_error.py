@@ -28,12 +28,15 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 EDGES = ("left", "right", "top", "bottom")
-COLUMNS = ("lam", "iterations", "residual", "energy", "min_gap", "seconds", "accepted", "moved")
+# a checkpoint's increment columns (older checkpoints have fewer: the rest read as nan)
+COLUMNS = ("lam", "iterations", "residual", "energy", "min_gap", "seconds", "accepted", "moved",
+           "cycle")
 
 
 def increments(run):
     data = np.load(run / "checkpoint.npz")
-    table = [dict(zip(COLUMNS, row)) for row in data["increments"]]
+    table = [{**dict.fromkeys(COLUMNS, np.nan), **dict(zip(COLUMNS, row))}
+             for row in data["increments"]]
     return json.loads(str(data["scene"])), table
 
 

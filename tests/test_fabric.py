@@ -825,6 +825,32 @@ def test_an_answer_whose_friction_did_not_settle_says_so(monkeypatch, move, sett
     assert eq.two_round_move == pytest.approx(2.0 * move * r, abs=1e-12)
 
 
+def test_a_round_that_only_moves_the_free_swatch_rigidly_has_settled(monkeypatch):
+    """Rounds that turn and shift the whole free-floating swatch (positions and
+    frames), as its held node lets them along a near-zero mode, settle the
+    friction: the rigid motion is no change of the answer (round_move)."""
+    from scipy.spatial.transform import Rotation
+    from knitfem.beam.rotation import quat_multiply
+    model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
+    assert model._free_body
+    turn = Rotation.from_rotvec([0.0, 0.0, 0.01])          # 0.57 deg: ~0.1 mm at the edges
+
+    class Result:
+        pass
+
+    def turning(model, state, lam, tol, iterations, progress=None, reanchor=None):
+        result = Result()
+        q = quat_multiply(np.broadcast_to(np.roll(turn.as_quat(), 1), state.q.shape), state.q)
+        result.state = type(state)(turn.apply(state.x) + [0.05, 0.0, 0.0], q)
+        result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
+        result.stopped = False
+        return result, np.inf
+    monkeypatch.setattr(fabric_relax, "_round", turning)
+    eq = fabric_relax.relax_fabric(model, Homotopy(model, 0.05), dlam=1.0)
+    assert eq.friction_settled is True and eq.last_round_move < 1e-9
+    assert eq.increments[-1].iterations == 2
+
+
 def test_rounds_that_cycle_between_two_states_are_reported_as_a_cycle(monkeypatch, tmp_path):
     """Rounds alternating between two shapes (each an equilibrium for the other's
     anchors, as the 25 x 35 at alpha 0.3 did) are not settled, and the answer
@@ -855,6 +881,7 @@ def test_rounds_that_cycle_between_two_states_are_reported_as_a_cycle(monkeypatc
     summary = {"last_round_move_over_r": 0.01, "two_round_move_over_r": 0.0}
     assert "cycle between two states" in _cycle_note(summary)
     assert "a creep" in _cycle_note({"last_round_move_over_r": 0.01, "two_round_move_over_r": 0.02})
+    assert "neither" in _cycle_note({"last_round_move_over_r": 0.01, "two_round_move_over_r": 0.01})
     assert _cycle_note({"last_round_move_over_r": 0.01, "two_round_move_over_r": None}) == ""
     path, scene = tmp_path / "checkpoint.npz", FabricScene(3, 3, elements_per_loop=16)
     curl_module._save_checkpoint(path, scene, a, 1.0, 0.1, eq.increments, None)

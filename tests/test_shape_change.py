@@ -65,6 +65,10 @@ def test_a_friction_round_of_a_free_swatch_is_measured_without_its_rigid_motion(
     wxyz = np.roll(turn.as_quat(), 1)
     moved_x = turn.apply(x) + [0.5, 0.1, -0.2]
     moved_q = quat_multiply(np.broadcast_to(wxyz, q.shape), q)
+    # the convention checked independently: the frames turned in space by the rotation
+    from knitfem.beam.rotation import rotation_matrix
+    assert np.allclose(rotation_matrix(moved_q), turn.as_matrix() @ rotation_matrix(q),
+                       atol=1e-12)
     old = SimpleNamespace(x=x, q=q)
     rigid = SimpleNamespace(x=moved_x, q=moved_q)
     assert round_move(old, rigid, 0.4, free=True) < 1e-9

@@ -259,10 +259,13 @@ def _cycle_note(summary):
     two = summary.get("two_round_move_over_r")
     if two is None:
         return ""
-    if two < 0.5 * summary["last_round_move_over_r"]:
-        return (f"; two rounds apart it moved {two:.3g}: the rounds cycle between two states, "
-                "each an equilibrium for the other's friction anchors")
-    return f"; two rounds apart it moved {two:.3g}: a creep, not a cycle"
+    last = summary["last_round_move_over_r"]
+    if two < 0.5 * last:
+        return (f"; two rounds apart it moved {two:.3g} yarn radii: the rounds cycle between "
+                "two states, each an equilibrium for the other's friction anchors")
+    if two > 1.5 * last:
+        return f"; two rounds apart it moved {two:.3g} yarn radii: a creep, not a cycle"
+    return f"; two rounds apart it moved {two:.3g} yarn radii: neither a cycle nor a creep"
 
 
 def run(args):
