@@ -1,6 +1,10 @@
-"""What a beam curl run is doing: a report of its checkpoint, finished or not.
+"""What a curl run is doing: a report of its checkpoint, finished or not.
 
     python studies/checkpoint_report.py --run RUN [--json FILE]
+
+A B-spline run (``knitfem curl --model bspline --out RUN``: its
+``bspline_<nw>x<nc>_checkpoint.npz``) reports its FIRE step, residual,
+relaxation seconds, processes and the curl of its current state.  A beam run:
 
 Reads ``RUN/checkpoint.npz`` (``knitfem curl --out RUN``; one may be copied out
 of a running relaxation, it is written atomically) and prints: the homotopy lam
@@ -58,7 +62,40 @@ def report(run):
     return out
 
 
+def bspline_report(run, path):
+    """A B-spline run's FIRE checkpoint ``path`` as a dict."""
+    from knitfem.bspline.fire import FireState
+    from knitfem.scenes.swatch_bspline import YarnConstants, bspline_swatch, prestretch
+    with np.load(path) as data:
+        scene = json.loads(str(data["scene"]))
+        state = FireState.from_arrays(data)
+        relax_s, processes = float(data["relax_s"]), int(data["processes"])
+        source = str(data["source"]) if "source" in data.files else ""
+    bs = bspline_swatch(scene["nw"], scene["nc"], w=scene["w"], c=scene["c"],
+                        radius=scene["radius"], segments_per_loop=scene["segments_per_loop"],
+                        constants=YarnConstants(**scene["constants"]),
+                        bindoff_stiffness=scene["bindoff_stiffness"])
+    prestretch(bs, scene["alpha"])
+    x = bs.points(bs.model.control_points(state.y))
+    return {"run": str(run), "model": "bspline", "nw": scene["nw"], "nc": scene["nc"],
+            "alpha": scene["alpha"], "step": state.step,
+            "residual": state.history[-1] if state.history else None, "rtol": scene["rtol"],
+            "relax_s": relax_s, "processes": processes, "source": source or None,
+            "mass_refreshes": state.refreshes, "state": _shape(x, bs.swatch)}
+
+
+def _print_bspline(r):
+    rolls = " / ".join(f"{r['state']['roll_deg'][e]:+.0f}" for e in EDGES)
+    residual = "not checked yet" if r["residual"] is None else f"{r['residual']:.2e}"
+    print(f"{r['run']}: B-spline {r['nw']} x {r['nc']}, alpha {r['alpha']}: FIRE step "
+          f"{r['step']}, residual {residual} (tolerance {r['rtol']:.0e}), {r['relax_s']:.0f} s "
+          f"of relaxation in {r['processes']} run(s), code {r['source'] or 'unknown'}")
+    print(f"  state: {r['state']['curl']}, rolls L/R/T/B {rolls} deg")
+
+
 def _print(r):
+    if r.get("model") == "bspline":
+        return _print_bspline(r)
     print(f"{r['run']}: {r['nw']} x {r['nc']}, alpha {r['alpha']}: equilibrium at lam "
           f"{r['lam']:.6g} (next increment {r['dlam']:.4g}); protocol {r['protocol'] or 'default'}")
     for inc in r["increments"]:
@@ -86,12 +123,15 @@ def _print(r):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--run", type=Path, required=True, help="a knitfem curl --out folder")
+    p.add_argument("--run", type=Path, required=True,
+                   help="a knitfem curl --out folder (beam or bspline)")
     p.add_argument("--json", type=Path, default=None, help="also write the report as JSON")
     args = p.parse_args()
-    if not (args.run / "checkpoint.npz").exists():
-        p.error(f"--run: {args.run} holds no checkpoint.npz (a knitfem curl --out folder)")
-    r = report(args.run)
+    fire = sorted(args.run.glob("bspline_*_checkpoint.npz"))
+    if not fire and not (args.run / "checkpoint.npz").exists():
+        p.error(f"--run: {args.run} holds no checkpoint.npz nor bspline_*_checkpoint.npz "
+                "(a knitfem curl --out folder)")
+    r = bspline_report(args.run, fire[0]) if fire else report(args.run)
     _print(r)
     if args.json:
         args.json.write_text(json.dumps(r, indent=2))

@@ -9,7 +9,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
 from beam_time_vs_error import EDGES, fill_from_earlier  # noqa: E402
-from checkpoint_report import report  # noqa: E402
+from checkpoint_report import bspline_report, report  # noqa: E402
 import runtime_estimate  # noqa: E402
 
 
@@ -108,3 +108,17 @@ def test_the_grid_projection_spreads_its_points_longest_first():
     assert runtime_estimate.makespan([10, 1, 1], 4) == 10.0
     n, worker_h, wall_h, longest_h = runtime_estimate.grid_projection([5, 10], [5], 1.0, 2)
     assert n == 2 and wall_h == pytest.approx(longest_h) and worker_h > wall_h
+
+
+def test_the_checkpoint_report_reads_a_bspline_run(tmp_path):
+    """A B-spline run's FIRE checkpoint: its step, last checked residual, runs,
+    and the curl of its state, the same as the run's own summary of it."""
+    from knitfem.scenes.curl_bspline import bspline_curl
+    summary = bspline_curl(4, 4, max_steps=40, newton=False, max_time=600, out=tmp_path,
+                           progress=False)
+    r = bspline_report(tmp_path, tmp_path / "bspline_4x4_checkpoint.npz")
+    assert r["model"] == "bspline" and (r["nw"], r["nc"], r["alpha"]) == (4, 4, 0.2)
+    assert r["step"] == 40 and r["processes"] == 1 and r["relax_s"] > 0
+    assert r["residual"] == pytest.approx(summary["history"][-1])
+    assert r["state"]["curl"] == summary["curl"]
+    assert r["state"]["roll_deg"] == pytest.approx(summary["roll_deg"])
