@@ -65,17 +65,13 @@ def report(run):
 def bspline_report(run, path):
     """A B-spline run's FIRE checkpoint ``path`` as a dict."""
     from knitfem.bspline.fire import FireState
-    from knitfem.scenes.swatch_bspline import YarnConstants, bspline_swatch, prestretch
+    from knitfem.scenes.curl_bspline import swatch_of
     with np.load(path) as data:
         scene = json.loads(str(data["scene"]))
         state = FireState.from_arrays(data)
         relax_s, processes = float(data["relax_s"]), int(data["processes"])
         source = str(data["source"]) if "source" in data.files else ""
-    bs = bspline_swatch(scene["nw"], scene["nc"], w=scene["w"], c=scene["c"],
-                        radius=scene["radius"], segments_per_loop=scene["segments_per_loop"],
-                        constants=YarnConstants(**scene["constants"]),
-                        bindoff_stiffness=scene["bindoff_stiffness"])
-    prestretch(bs, scene["alpha"])
+    bs = swatch_of(scene)
     x = bs.points(bs.model.control_points(state.y))
     return {"run": str(run), "model": "bspline", "nw": scene["nw"], "nc": scene["nc"],
             "alpha": scene["alpha"], "step": state.step,

@@ -186,6 +186,17 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     return summary
 
 
+def swatch_of(scene):
+    """The prestretched swatch of a checkpoint's ``scene`` (the dict
+    :func:`bspline_curl` keeps in ``<name>_checkpoint.npz``)."""
+    bs = bspline_swatch(scene["nw"], scene["nc"], w=scene["w"], c=scene["c"],
+                        radius=scene["radius"], segments_per_loop=scene["segments_per_loop"],
+                        constants=YarnConstants(**scene["constants"]),
+                        bindoff_stiffness=scene["bindoff_stiffness"])
+    prestretch(bs, scene["alpha"])
+    return bs
+
+
 def _commit():
     """The git commit knitfem runs from ('' when not known; '+' marks local changes)."""
     made = source()

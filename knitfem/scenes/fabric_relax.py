@@ -231,6 +231,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     ends = list(start.ends) if start is not None else []
     moves = list(start.moves) if start is not None else []
     arm = smallest_radius(model) or 0.0
+    free = getattr(model, "_free_body", False)     # rounds measured without rigid motion
     early = start.early if start is not None else 0    # steps of rounds ended early
     k = first
     two_back, cycle = None, np.nan        # the state before the last round's start
@@ -255,7 +256,6 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
                                  ends=tuple(ends), moves=tuple(moves), early=early))
             continue
         ends.append(result.residual)
-        free = getattr(model, "_free_body", False)
         moved = round_move(state, result.state, arm, free)
         moves.append(moved)
         cycle = round_move(two_back, result.state, arm, free) if two_back is not None else np.nan

@@ -25,8 +25,8 @@ def round_move(old, new, arm, free):
     ``free``: a free-floating scene, measured after the rigid motion that best
     carries ``old`` onto ``new`` -- its swatch, held at one node, turns about
     it along a near-zero mode by whatever the round's residual leaves (a 25 x
-    35 round: 0.022 deg, 0.037 r at the far edge, against 0.009 r of change of
-    shape), which is no change of the answer."""
+    35 round at alpha 0.3: a 0.022 deg turn; this measure 0.033 r without the
+    fit, 0.0072 r with it), which is no change of the answer."""
     from ..beam.rotation import quat_multiply, spatial_turn
 
     def move(x_old, q_old):
