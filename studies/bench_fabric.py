@@ -15,12 +15,13 @@ sparse Hessian, the PSD model of the Hessian (used where it is indefinite)
 and the sparse Cholesky factorisation of H + mu D (the solve of one step).
 ``--checkpoint`` measures instead at the state and friction anchors of a
 ``knitfem curl`` run's checkpoint (a relaxed swatch carries thousands of
-friction anchors, the warm start almost none).  One BLAS / numba thread.
+friction anchors, the warm start almost none): the round under way where the
+checkpoint has one, else its last equilibrium.  One BLAS / numba thread.
 ``--sizes ""`` measures checkpoints only.  ``--runs`` adds the wall time and iterations of
 finished ``knitfem curl`` runs (their ``curl_*.json``) to the table.  ``--steps N``
 (with ``--checkpoint``) also runs N whole iterations of the round a relaxation
-would run next (the friction re-anchored at the checkpoint's equilibrium, the
-homotopy at the increment under way) and reports wall and CPU seconds per
+would run next (the round under way with its own anchors, or the next
+increment's first round, friction anchored at the checkpoint's equilibrium) and reports wall and CPU seconds per
 iteration: the line-search trials, the retried factorisations and what is
 kept between iterations (broad phase, symbolic analysis) included, which the
 per-part medians above cannot show.  Run it with ``PYTHONPATH`` on another
@@ -43,7 +44,7 @@ from scipy import sparse  # noqa: E402
 from knitfem.beam.element import element_forces  # noqa: E402
 from knitfem.beam.energy import EnergyProblem  # noqa: E402
 from knitfem.io import write_json  # noqa: E402
-from knitfem.scenes.curl import load_checkpoint  # noqa: E402
+from knitfem.scenes.curl import checkpoint_protocol, load_checkpoint  # noqa: E402
 from knitfem.scenes.fabric import FabricScene, Homotopy, build  # noqa: E402
 from knitfem.solve.factor import Cholesky, NotPositiveDefinite, cholmod_available  # noqa: E402
 from knitfem.solve.minimize import _factor, minimize  # noqa: E402
@@ -75,7 +76,7 @@ def measure(nw, nc, repeat, warm, checkpoint=None):
     else:
         # a relaxation's own state and friction anchors (the warm start has
         # hardly any anchors: friction forms as the yarns tighten)
-        state, lam = load_checkpoint(Path(checkpoint), scene, model)[:2]
+        state, lam = checkpoint_state(checkpoint, scene, model)
         Homotopy.of_scene(model, scene).apply(lam)
     asm = model.assembly
     a, b = asm.elements
@@ -112,6 +113,21 @@ def measure(nw, nc, repeat, warm, checkpoint=None):
     return row
 
 
+def checkpoint_state(checkpoint, scene, model):
+    """(state, lam) where a run's checkpoint stands, with its friction anchors
+    on the contact model: the round under way when there is one (its state,
+    target and anchors), else the last equilibrium.  Read with the run's own
+    protocol, so the thirds path's and other non-default runs load too."""
+    data = np.load(checkpoint)
+    state, lam, _, _, partial = load_checkpoint(Path(checkpoint), scene, model,
+                                                checkpoint_protocol(data))
+    if partial is None:
+        return state, lam
+    if partial.friction[0] is not None:
+        model.contact_model.restore_friction(partial.friction)
+    return partial.state, partial.target
+
+
 def round_steps(checkpoint, steps):
     """N iterations of the next friction round from a checkpoint (see the
     module docstring): wall and CPU seconds per iteration, and the energy
@@ -119,16 +135,22 @@ def round_steps(checkpoint, steps):
     data = np.load(checkpoint)
     scene = FabricScene(**json.loads(str(data["scene"])))
     model, _, info = build(scene)
-    state, lam = load_checkpoint(Path(checkpoint), scene, model)[:2]
-    if "partial_numbers" in data.files:     # the increment under way
-        lam = float(data["partial_numbers"][0])
-    elif lam < 1.0:                         # the next one
+    state, lam = checkpoint_state(checkpoint, scene, model)
+    if "partial_numbers" not in data.files and lam < 1.0:     # the next increment
         lam = min(1.0, lam + float(data["dlam"]))
+    under_way = "partial_numbers" in data.files
     Homotopy.of_scene(model, scene).apply(lam)
-    model.contact_model.anchor_friction(state.x, state.q)
+    anchors = model.contact_model.anchors, model.contact_model.anchor_q
+
+    def anchor():
+        if under_way:           # the round under way keeps its own anchors
+            model.contact_model.restore_friction(anchors)
+        else:
+            model.contact_model.anchor_friction(state.x, state.q)
+    anchor()
     problem = EnergyProblem(model, 1.0)
     minimize(problem, state, tol=0.0, max_iter=1, raise_on_failure=False)   # compile, caches
-    model.contact_model.anchor_friction(state.x, state.q)
+    anchor()
     wall, cpu = time.perf_counter(), time.process_time()
     out = minimize(problem, state, tol=0.0, max_iter=steps, raise_on_failure=False)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
