@@ -263,7 +263,7 @@ def test_factorizer_reuses_the_analysis_and_gives_the_same_factors(rng, backend)
     C = sparse.csc_matrix(A + sparse.random(n, n, density=0.01, random_state=3).T @
                           sparse.random(n, n, density=0.01, random_state=3))   # another pattern
     b = rng.normal(size=n)
-    factorize = Factorizer(backend=backend)
+    factorize = Factorizer(backend=backend, reorder=0)
     for M in (A, A + 0.5 * sparse.identity(n), C, C + sparse.identity(n)):
         assert np.array_equal(factorize(M).solve(b), Cholesky(M, backend=backend).solve(b))
     with pytest.raises(NotPositiveDefinite):
@@ -273,6 +273,45 @@ def test_factorizer_reuses_the_analysis_and_gives_the_same_factors(rng, backend)
     assert factorize.factorizations == 6
     if backend == "cholmod":
         assert factorize.analyses == 2          # A's pattern, then C's
+        assert factorize.orderings == 2
+
+
+def test_factorizer_keeps_an_order_for_new_patterns_and_solves_to_round_off(rng):
+    """A new pattern is factorised in the kept fill-reducing order (a natural
+    analysis of the permuted matrix): solves agree with a fresh Cholesky's to
+    round-off, shifted retries of one pattern reuse that analysis, a matrix
+    that is not positive definite is still refused, and after ``reorder``
+    new patterns the order is made afresh (then bit for bit again)."""
+    from scipy import sparse
+    from knitfem.solve.factor import Cholesky, Factorizer, NotPositiveDefinite, \
+        cholmod_available
+    if not cholmod_available():
+        pytest.skip("scikit-sparse (the cholmod extra) is not installed")
+    n = 300
+    B = sparse.random(n, n, density=0.02, random_state=2, format="csc")
+    base = sparse.csc_matrix(B @ B.T + 1e-3 * sparse.identity(n))
+    extra = [sparse.random(n, n, density=0.002, random_state=10 + k) for k in range(3)]
+    mats = [base] + [sparse.csc_matrix(base + E @ E.T) for E in extra]   # 4 patterns
+    b = rng.normal(size=n)
+    factorize = Factorizer(reorder=2, least_nnz=0)
+    for k, M in enumerate(mats):
+        for shift in (0.0, 0.5):
+            S = sparse.csc_matrix(M + shift * sparse.identity(n))
+            x, ref = factorize(S).solve(b), Cholesky(S).solve(b)
+            if k in (0, 3):         # ordered afresh: the same factors
+                assert np.array_equal(x, ref)
+            else:                   # in the kept order
+                assert not np.array_equal(x, ref)
+                assert np.allclose(S @ x, b, rtol=0, atol=1e-10 * np.abs(b).max())
+                assert np.abs(x - ref).max() <= 1e-8 * np.abs(ref).max()
+        if k == 1:
+            with pytest.raises(NotPositiveDefinite):
+                factorize(sparse.csc_matrix(M - 2.0 * abs(M).max() * sparse.identity(n)))
+    assert (factorize.factorizations, factorize.analyses, factorize.orderings) == (9, 4, 2)
+    small = Factorizer(reorder=2, least_nnz=max(M.nnz for M in mats) + 1)   # all below: afresh
+    for M in mats[:3]:
+        assert np.array_equal(small(M).solve(b), Cholesky(M).solve(b))
+    assert small.orderings == 3
 
 
 def test_kept_pattern_symmetrized_equals_the_blockwise_symmetric_part(rng):
@@ -387,3 +426,4 @@ def test_a_stop_ends_the_minimisation_unconverged_where_it_was():
         np.full(4, 3.0))[0]
     whole = minimize(Quartic(), np.full(4, 3.0), tol=1e-12, max_iter=50)
     assert whole.converged and not whole.stopped and whole.iterations > 3
+
