@@ -427,3 +427,47 @@ def test_a_stop_ends_the_minimisation_unconverged_where_it_was():
     whole = minimize(Quartic(), np.full(4, 3.0), tol=1e-12, max_iter=50)
     assert whole.converged and not whole.stopped and whole.iterations > 3
 
+
+def test_a_full_steps_trial_brings_its_hessian_and_changes_no_bit():
+    """After a full step the line search evaluates its first trial with the
+    Hessian (mostly taken: the accepted state is not evaluated again).  That
+    is only a saving if energy and gradient are the same bits with and without
+    the Hessian: checked on a swatch with contact and friction at the states
+    of the path, and the evaluations counted."""
+    from knitfem.beam.energy import EnergyProblem
+    from knitfem.scenes.fabric import FabricScene, Homotopy, build
+    from knitfem.solve.minimize import minimize
+    scene = FabricScene(3, 3, elements_per_loop=16, alpha=0.2)
+    model, _, _ = build(scene)
+    Homotopy.of_scene(model, scene).apply(0.3)
+    state = model.initial_state()
+    model.contact_model.anchor_friction(state.x, state.q)
+    problem = EnergyProblem(model, 1.0)
+    state = minimize(problem, state, tol=0.0, max_iter=20, raise_on_failure=False).state
+    model.contact_model.anchor_friction(state.x, state.q)
+
+    class Counted:
+        def __init__(self, inner):
+            self.inner, self.calls, self.states = inner, [], []
+
+        def evaluate(self, x, hessian=True):
+            self.calls.append(hessian)
+            self.states.append(x)
+            return self.inner.evaluate(x, hessian)
+
+        def __getattr__(self, name):
+            return getattr(self.inner, name)
+    counted = Counted(problem)
+    out = minimize(counted, state, tol=0.0, max_iter=25, raise_on_failure=False)
+    assert model.contact_model.report.active_pairs > 0 and len(model.contact_model.anchors.key) > 0
+    t = [h[3] for h in out.history]
+    accepted = sum(1 for v in t if v > 0)
+    saved = sum(1 for i in range(1, len(t)) if t[i - 1] == 1.0 and t[i] == 1.0)
+    assert saved >= 10
+    # the old line search evaluated every accepted state twice (trial, then with Hessian)
+    again = sum(1 for a, b in zip(counted.states, counted.states[1:]) if a is b)
+    assert again == accepted - saved
+    for x in counted.states[::5]:
+        E0, g0 = problem.evaluate(x, False)[:2]
+        E1, g1 = problem.evaluate(x, True)[:2]
+        assert E0 == E1 and np.array_equal(g0, g1)

@@ -92,6 +92,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
     E, g, H, Hp = problem.evaluate(x, True)
     history = []
     exact_failed, shift_last = 0, 0.0
+    full_before = False             # the last step was a full one
     factorize = Factorizer()
     limit = getattr(problem, "step_limit", None)
     depth = getattr(problem, "depth", None)
@@ -150,9 +151,14 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
         noise = 1e-12 * max(abs(E), 1e-300)
         too_deep = 0            # trials of this line search that only the depth guard cut
         refused = 0             # trials outside the model (infinite energy)
-        for _ in range(max_cuts):
+        # after a full step the full trial is mostly taken: its Hessian comes
+        # with it (E and g are the same bits either way, tested), saving the
+        # evaluation of the accepted state that would follow
+        with_hessian = full_before
+        for cut in range(max_cuts):
             x_try = problem.retract(x, t * dx)
-            E_try, g_try = problem.evaluate(x_try, False)[:2]
+            trial = problem.evaluate(x_try, with_hessian and cut == 0)
+            E_try, g_try = trial[:2]
             lower = np.isfinite(E_try) and (
                 E_try <= E + 1e-4 * t * slope or
                 (-t * slope < noise and E_try <= E + noise and problem.residual(g_try) < res))
@@ -165,7 +171,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
             t *= 0.5
         if accepted:
             x = x_try
-            E, g, H, Hp = problem.evaluate(x, True)
+            E, g, H, Hp = trial if trial[2] is not None else problem.evaluate(x, True)
             deepest = depth() if depth is not None else 0.0
             mu = max(mu / 3.0, MU_MIN) if t == 1.0 else (2.0 * mu if t < 0.25 else mu)
         else:
@@ -183,6 +189,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
                 raise RelaxationError(f"relaxation stalled at iteration {it}: no decrease of "
                                       f"the energy along a damped Newton step (residual "
                                       f"{res:.3e}){why}", x, history)
+        full_before = accepted and t == 1.0
         history.append((E, res, mu, t if accepted else 0.0, used, cap))
         if progress is not None:
             progress(it, E, res)
