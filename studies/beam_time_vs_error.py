@@ -19,6 +19,7 @@ those increments' rolls, matched by position and lam.
 import argparse
 import csv
 import json
+from dataclasses import fields
 from pathlib import Path
 
 import matplotlib
@@ -27,10 +28,11 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from knitfem.scenes.fabric_relax import Increment  # noqa: E402
+
 EDGES = ("left", "right", "top", "bottom")
 # a checkpoint's increment columns (older checkpoints have fewer: the rest read as nan)
-COLUMNS = ("lam", "iterations", "residual", "energy", "min_gap", "seconds", "accepted", "moved",
-           "cycle")
+COLUMNS = tuple(f.name for f in fields(Increment))
 
 
 def increments(run):

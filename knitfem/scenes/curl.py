@@ -17,6 +17,7 @@ atomically) from which ``resume`` continues after a kill.
 import json
 import os
 import time
+from dataclasses import astuple
 from pathlib import Path
 
 import numpy as np
@@ -41,9 +42,7 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
     data = {"x": state.x, "q": state.q, "lam": lam, "dlam": dlam,
             "scene": json.dumps(scene.as_dict(), sort_keys=True),
             "protocol": json.dumps(protocol, sort_keys=True),
-            "increments": np.array([[i.lam, i.iterations, i.residual, i.energy, i.min_gap,
-                                     i.seconds, i.accepted, i.moved, i.cycle]
-                                    for i in increments])}
+            "increments": np.array([astuple(i) for i in increments])}   # Increment's fields
     anchors = [("", partial.equilibrium if partial is not None else
                 (contact.friction_state() if contact is not None else None))]
     if partial is not None:
