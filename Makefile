@@ -27,7 +27,7 @@ demo: $(STAMP) system-deps
 test: $(STAMP) system-deps
 	$(VENV)/bin/python -m pytest -q -n auto --dist loadfile
 
-# issue 12's cross-model check (both models on an 8 x 8 swatch, ~15-20 min)
+# issue 12's cross-model check (both models on a 10 x 10 swatch, ~15 min)
 test-crosscheck: $(STAMP) system-deps
 	$(VENV)/bin/python -m pytest -q --crosscheck tests/test_crosscheck.py
 
