@@ -832,7 +832,7 @@ def test_a_round_that_only_moves_the_free_swatch_rigidly_has_settled(monkeypatch
     from scipy.spatial.transform import Rotation
     from knitfem.beam.rotation import quat_multiply
     model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
-    assert model._free_body
+    assert model.free_floating
     turn = Rotation.from_rotvec([0.0, 0.0, 0.01])          # 0.57 deg: ~0.1 mm at the edges
 
     class Result:

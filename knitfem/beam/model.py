@@ -57,6 +57,7 @@ class BeamModel(Supports):
         self._assembly = None
         self._contact = None
         self._ties = []           # (node a, node b, stiffness or None)
+        self._free_body = False   # held at one node by free_body()
         for r in rods:
             self.add_rod(r)
 
@@ -185,6 +186,12 @@ class BeamModel(Supports):
         self._free_body = True
         return int(node)
 
+    @property
+    def free_floating(self):
+        """Whether :meth:`free_body` holds this scene (its rigid motions are a
+        near-zero mode about the held node, not a change of shape)."""
+        return self._free_body
+
     def gravity(self, g):
         """Gravity acceleration (3,) acting on each rod's ``section.line_density``."""
         self._gravity = _vector("gravity", g)
@@ -232,7 +239,7 @@ class BeamModel(Supports):
                 raise ValueError(f"contradictory boundary conditions: a load acts on "
                                  f"supported dof(s) {hit} of node {node}; the support "
                                  "would absorb it")
-        if self._contact is not None or getattr(self, "_free_body", False):
+        if self._contact is not None or self._free_body:
             return    # rods may be held by contact or ties; a singular tangent will tell
         for k, off in enumerate(self.assembly.node_offset[:-1]):
             end = self.assembly.node_offset[k + 1]
