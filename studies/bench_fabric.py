@@ -136,9 +136,9 @@ def round_steps(checkpoint, steps):
     scene = FabricScene(**json.loads(str(data["scene"])))
     model, _, info = build(scene)
     state, lam = checkpoint_state(checkpoint, scene, model)
-    if "partial_numbers" not in data.files and lam < 1.0:     # the next increment
-        lam = min(1.0, lam + float(data["dlam"]))
     under_way = "partial_numbers" in data.files
+    if not under_way and lam < 1.0:         # the next increment
+        lam = min(1.0, lam + float(data["dlam"]))
     Homotopy.of_scene(model, scene).apply(lam)
     anchors = model.contact_model.anchors, model.contact_model.anchor_q
 
