@@ -94,3 +94,55 @@ def test_planar_s_rod_is_stable_above_and_unstable_below_its_pop_up(c_over_L, st
     result = relax_newton(model, model.reduce(model._initial()), rtol=1e-9)
     assert np.abs(model.control_points(result.y)[:, 2]).max() < 1e-9      # planar
     assert stability.stability(model, result.y)[0] == stable
+
+
+def _largest_move(model, a, b):
+    Z, _ = model.reduction()
+    return np.sqrt(((Z @ (a - b)).reshape(-1, 3) ** 2).sum(axis=1)).max()
+
+
+def test_newton_distance_is_the_move_still_ahead_and_fire_goes_on_until_it_is_small():
+    """A soft cantilever (EA/EI = 1e6 /L^2) sagging under its weight: FIRE
+    stopped at relative residual 1e-3 is still 1.3e-4 L from its equilibrium
+    (FIRE to 1e-11); the Newton step's largest move says so within 2 %
+    (measured 0.2 %).  Asked to confirm rest at 2e-5 L, FIRE goes on towards
+    ten times smaller residuals and ends within it."""
+    from knitfem.bspline.fire import relax_fire
+    from knitfem.scenes.curl_bspline import AtRest
+    L, EI = 1.0, 2.0
+    model = cantilever(L, 16, 1e6 * EI / L**2, EI, gravity=(0, 0, -2.0))
+    model.rho[:] = 0.5
+    y0 = model.reduce(model._initial())
+    exact = relax_fire(model, y0, rtol=1e-11, max_steps=10**6).y
+    early = relax_fire(model, y0, rtol=1e-3, max_steps=10**6)
+    ahead = _largest_move(model, early.y, exact)
+    assert ahead > 1e-4 * L
+    assert stability.equilibrium_distance(model, early.y) == pytest.approx(ahead, rel=0.02)
+    rest = AtRest(model, 2e-5 * L)
+    confirmed = relax_fire(model, y0, rtol=1e-3, max_steps=10**6, confirm=rest)
+    assert _largest_move(model, confirmed.y, exact) < 2e-5 * L
+    assert confirmed.residual < 1e-4 and confirmed.iterations > early.iterations
+    assert rest.distance <= 2e-5 * L
+
+
+def test_newton_distance_ignores_rigid_motions_of_a_free_body():
+    """A free yarn (a 3/4 circle, its own shape as natural state: at rest,
+    distance 0) given a small bump out of plane, a translation and a small
+    turn: the Newton step's largest move is the bump's part orthogonal to
+    the rigid motions (1 %; to first order exactly that), however far the
+    body was carried."""
+    from knitfem.bspline.stability import rigid_modes
+    t = np.linspace(0, 1.5 * np.pi, 400)
+    arc = np.stack([2.0 * np.cos(t), 2.0 * np.sin(t), 0 * t], axis=1)
+    model = BSplineModel([Yarn.through(arc, 16, 1e4, 1.0, natural="curved")])
+    y = model.reduce(model._initial())
+    assert stability.equilibrium_distance(model, y) == 0.0
+    q = model.control_points(y)
+    bump = 1e-3 * np.sin(np.linspace(0, np.pi, len(q)))[:, None] ** 2 * [0.0, 0.0, 1.0]
+    R = rigid_modes(model, y)
+    delta = model.reduce(q + bump) - y
+    deformation = delta - R @ (R.T @ delta)
+    expected = np.sqrt((deformation.reshape(-1, 3) ** 2).sum(axis=1)).max()
+    turn = 1e-6 * np.cross([0.0, 0.0, 1.0], q - q.mean(axis=0))
+    carried = model.reduce(q + bump + turn + [0.5, -0.2, 0.1])
+    assert stability.equilibrium_distance(model, carried) == pytest.approx(expected, rel=0.01)

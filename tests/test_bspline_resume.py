@@ -175,3 +175,21 @@ def test_energy_gradient_and_hessian_do_not_depend_on_where_the_verlet_list_was_
         assert E == E0 and np.array_equal(g, g0)
         differ += not np.array_equal(H, H0)
     assert differ == 0
+
+
+def test_the_residual_aimed_at_rides_in_the_checkpoint_and_older_ones_aim_at_rtol(tmp_path):
+    """FireState.target (the residual FIRE aims at after its confirm said
+    'not at rest') survives arrays() -> savez -> from_arrays; a checkpoint
+    written before the field existed reads as None (aim at rtol)."""
+    y = np.arange(6.0)
+    state = FireState(y, 0 * y, 1 + y, 0.5, 0.1, 3, 1, 40, 0, 0, (1e-3, 1e-4), 1e-8)
+    np.savez(tmp_path / "new.npz", **state.arrays())
+    with np.load(tmp_path / "new.npz") as saved:
+        loaded = FireState.from_arrays(saved)
+        assert loaded.target == 1e-8 and loaded.step == 40 and np.array_equal(loaded.m, state.m)
+    old = {k: v for k, v in state.arrays().items() if k != "target"}
+    np.savez(tmp_path / "old.npz", **old)
+    with np.load(tmp_path / "old.npz") as saved:
+        assert FireState.from_arrays(saved).target is None
+    none = state._replace(target=None)
+    assert FireState.from_arrays(none.arrays()).target is None

@@ -13,8 +13,12 @@ length shrunk by alpha, then relaxation to a static equilibrium:
 
 Either stops when the relative residual |dE/dq| / (sum of the separate force
 sizes) is below ``rtol`` (and, dynamic, the kinetic energy below its
-criterion); ``newton=True`` then tries to finish with Newton to ``newton_rtol``
-(kept only if it gets there).  Every answer says whether it converged; a
+criterion); FIRE then also asks the Newton step to the nearest equilibrium
+(:func:`knitfem.bspline.stability.equilibrium_distance`) to move no control
+point more than ``rest_tol`` yarn radii, and goes on towards ten times smaller
+residuals until it does (a relative residual against the stiff stretching
+forces can leave a rolling swatch radii from rest).  ``newton=True`` then tries
+to finish with Newton to ``newton_rtol`` (kept only if it gets there).  Every answer says whether it converged; a
 run that runs out of time returns its last state with ``converged: false``.
 Stability: the lowest eigenvalue of the reduced Hessian with the six rigid
 motions lifted (:mod:`knitfem.bspline.stability`).  Curl: the shared output
@@ -71,9 +75,30 @@ def _check_count(name, value, minimum):
     return int(value)
 
 
+class AtRest:
+    """FIRE's ``confirm``: the Newton step to the nearest equilibrium moves no
+    control point more than ``tol`` (mm); ``distance`` keeps the last answer
+    (None: the step does not descend, the Hessian is indefinite) and ``y`` the
+    state it was measured at."""
+
+    def __init__(self, model, tol):
+        self.model, self.tol = model, float(tol)
+        self.y = self.distance = None
+
+    def measure(self, y):
+        if self.y is None or not np.array_equal(self.y, y):
+            self.distance = stability.equilibrium_distance(self.model, y)
+            self.y = np.array(y, copy=True)
+        return self.distance
+
+    def __call__(self, y):
+        distance = self.measure(y)
+        return distance is not None and distance <= self.tol
+
+
 def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_steps=None,
                  newton=True, newton_rtol=1e-8, newton_steps=50, progress=False, monitor=None,
-                 state=None, checkpoint=None, checkpoint_every=600.0):
+                 state=None, checkpoint=None, checkpoint_every=600.0, rest_tol=0.1):
     """Relax a prestretched :class:`~.swatch_bspline.BSplineSwatch` from its
     knitted shape; returns (y, info dict: converged, residual, iterations,
     method, history, oscillations, message).  max_steps: a step limit besides
@@ -81,13 +106,20 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
     depends on the machine's load).  monitor(step, y, residual, E, ke).
     FIRE only: state, a :class:`~knitfem.bspline.fire.FireState` to go on
     from; checkpoint(state) every ``checkpoint_every`` seconds and at the end
-    (:func:`~knitfem.bspline.fire.relax_fire`)."""
+    (:func:`~knitfem.bspline.fire.relax_fire`).  rest_tol: the largest move
+    to the nearest equilibrium (yarn radii) that counts as at rest (FIRE goes
+    on until it holds; reported as ``equilibrium_distance_over_r`` for either
+    method, None where the Hessian is indefinite)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if method != "fire" and (state is not None or checkpoint is not None):
         raise ValueError(f"checkpoints and resuming need method 'fire', got {method!r} (the "
                          "dynamic relaxation keeps no state to go on from)")
     model = bswatch.model
+    radius = bswatch.swatch.radius
+    if not (np.isfinite(rest_tol) and rest_tol > 0):
+        raise ValueError(f"rest_tol must be a positive number of yarn radii, got {rest_tol!r}")
+    rest = AtRest(model, rest_tol * radius)
     y = model.reduce(model._initial()) if state is None else state.y
     start = time.perf_counter()
     info = {"method": method, "converged": False, "message": "", "oscillations": 0}
@@ -96,7 +128,8 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
         if method == "fire":
             result = relax_fire(model, y, rtol=rtol, max_steps=steps, max_time=max_time,
                                 progress=progress, monitor=monitor, state=state,
-                                checkpoint=checkpoint, checkpoint_every=checkpoint_every)
+                                checkpoint=checkpoint, checkpoint_every=checkpoint_every,
+                                confirm=rest)
         else:
             result = relax_dynamic(model, y, rtol=rtol, max_steps=steps, max_time=max_time,
                                    damping=bswatch.constants.damping_rate, kinetic=False,
@@ -121,7 +154,16 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
             info["message"] = f"Newton finish not kept: {err}"
     E, g, ref = model.reduced_energy(y)
     info["residual"] = float(np.linalg.norm(g) / ref)
-    info["converged"] = info["converged"] and converged(g, ref, rtol, model)
+    distance = rest.measure(y)
+    info["equilibrium_distance_over_r"] = None if distance is None else distance / radius
+    at_rest = rest(y)
+    if info["converged"] and converged(g, ref, rtol, model) and not at_rest:
+        # the dynamic relaxation's criteria held (FIRE's cannot end so)
+        info["message"] = info["message"] + (f"residual {info['residual']:.1e} reached but not at rest: the "
+                            "Newton step to the nearest equilibrium moves a control point "
+                            + ("along negative curvature" if distance is None else
+                               f"{distance / radius:.3g} r (rest_tol {rest_tol:g} r)"))
+    info["converged"] = info["converged"] and converged(g, ref, rtol, model) and at_rest
     # below the round-off floor: the relative residual cannot say more
     info["roundoff_limited"] = bool(np.linalg.norm(g) <= model.roundoff)
     return y, info
@@ -130,7 +172,8 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
 def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_loop=16,
                  method="fire", rtol=1e-6, newton=True, max_time=1800.0, max_steps=None,
                  constants=None, bindoff_stiffness=10.0, out=None, name=None, progress=True,
-                 trace=False, resume=False, checkpoint=True, checkpoint_every=600.0):
+                 trace=False, resume=False, checkpoint=True, checkpoint_every=600.0,
+                 rest_tol=0.1):
     """Curl of an nw x nc plain-knit swatch in the B-spline model: issue 9's
     JSON keys (dict) plus "constants", "energy", "method", "message" and the
     relaxation history.  Fields the model cannot measure are None (here every
@@ -172,7 +215,7 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     y, info = relax_swatch(bs, method=method, rtol=rtol, max_time=max_time,
                            max_steps=max_steps, newton=newton, progress=progress,
                            monitor=monitor, state=run.state, checkpoint=run.save_or_none,
-                           checkpoint_every=checkpoint_every)
+                           checkpoint_every=checkpoint_every, rest_tol=rest_tol)
     summary = summarise(bs, y, info)
     summary["relax_s"] += run.earlier_s
     summary["processes"] = run.processes + 1
@@ -295,6 +338,7 @@ def summarise(bs, y, info):
         **profile_fields(points, bs.swatch),
         "height": float(shape.height), "height_over_width": float(shape.height_over_width),
         "converged": bool(info["converged"]), "residual": info["residual"],
+        "equilibrium_distance_over_r": info.get("equilibrium_distance_over_r"),
         "stable": is_stable, "lowest_eigenvalue": lowest,
         "max_penetration_over_d": overlap(pts, model.contact_pairs(q), model.contact),
         "dofs": int(y.size), "iterations": int(info["iterations"]),
