@@ -118,17 +118,32 @@ def test_newton_distance_is_the_move_still_ahead_and_fire_goes_on_until_it_is_sm
     ahead = _largest_move(model, early.y, exact)
     assert ahead > 1e-4 * L
     assert stability.equilibrium_distance(model, early.y) == pytest.approx(ahead, rel=0.02)
-    rest = AtRest(model, 2e-5 * L)
-    confirmed = relax_fire(model, y0, rtol=1e-3, max_steps=10**6, confirm=rest)
+    asked = []
+
+    class Counted(AtRest):
+        def __call__(self, y):
+            asked.append(super().__call__(y))
+            return asked[-1]
+    saved = []
+    rest = Counted(model, 2e-5 * L)
+    confirmed = relax_fire(model, y0, rtol=1e-3, max_steps=10**6, confirm=rest,
+                           checkpoint=saved.append, checkpoint_every=0.0)
     assert _largest_move(model, confirmed.y, exact) < 2e-5 * L
     assert confirmed.residual < 1e-4 and confirmed.iterations > early.iterations
     assert rest.distance <= 2e-5 * L
+    # asked once per tenfold smaller residual, not at every step (measured: 2 refusals)
+    assert asked[-1] and not any(asked[:-1]) and 2 <= len(asked) <= 4
+    # a run resumed after a refusal aims at the tightened residual: bit for bit the same end
+    after = next(s for s in saved if s.target is not None and s.step < confirmed.iterations)
+    resumed = relax_fire(model, None, rtol=1e-3, max_steps=10**6, state=after,
+                         confirm=AtRest(model, 2e-5 * L))
+    assert np.array_equal(resumed.y, confirmed.y)
 
 
 def test_newton_distance_ignores_rigid_motions_of_a_free_body():
     """A free yarn (a 3/4 circle, its own shape as natural state: at rest,
-    distance 0) given a small bump out of plane, a translation and a small
-    turn: the Newton step's largest move is the bump's part orthogonal to
+    distance 0) given a small bump out of plane, then carried and turned
+    0.3 rad: the Newton step's largest move is the bump's part orthogonal to
     the rigid motions (1 %; to first order exactly that), however far the
     body was carried."""
     from knitfem.bspline.stability import rigid_modes
@@ -143,6 +158,9 @@ def test_newton_distance_ignores_rigid_motions_of_a_free_body():
     delta = model.reduce(q + bump) - y
     deformation = delta - R @ (R.T @ delta)
     expected = np.sqrt((deformation.reshape(-1, 3) ** 2).sum(axis=1)).max()
-    turn = 1e-6 * np.cross([0.0, 0.0, 1.0], q - q.mean(axis=0))
-    carried = model.reduce(q + bump + turn + [0.5, -0.2, 0.1])
+    c, s = np.cos(0.3), np.sin(0.3)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    bumped = q + bump
+    centre = bumped.mean(axis=0)
+    carried = model.reduce((bumped - centre) @ turn.T + centre + [0.5, -0.2, 0.1])
     assert stability.equilibrium_distance(model, carried) == pytest.approx(expected, rel=0.01)

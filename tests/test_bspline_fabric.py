@@ -85,6 +85,7 @@ def test_knitted_swatch_with_its_own_shape_as_natural_state_is_at_rest():
     for method in ("fire", "dynamic"):
         y, info = relax_swatch(bs, method=method, newton=False, max_time=60)
         assert info["converged"] and np.abs(y - y0).max() < 1e-12
+        assert info["equilibrium_distance_over_r"] == 0.0 and info["rest_tol"] == 0.1
     v = np.ones_like(y0)
     assert not m.contact_damping(y0, v).any()               # nothing touches: nothing damps
 

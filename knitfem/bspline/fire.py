@@ -40,7 +40,7 @@ class FireState(NamedTuple):
     capped: int
     refreshes: int
     history: tuple
-    target: float = None     # the residual aimed at now (rtol, tightened by ``confirm``)
+    target: float = None     # the residual aimed at once ``confirm`` refused rest (None: rtol)
 
     def arrays(self):
         """The state as a dict of numpy arrays (for ``np.savez``)."""
@@ -109,12 +109,16 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
         dt, a, n_pos, cuts, capped, refreshes = (state.dt, state.a, state.n_pos, state.cuts,
                                                  state.capped, state.refreshes)
         first, history = state.step + 1, list(state.history)
-    target = rtol if state is None or state.target is None else state.target
+    target = rtol if state is None or state.target is None else min(rtol, state.target)
     step = first - 1
 
     def snapshot():
         return FireState(y.copy(), v.copy(), m, dt, a, n_pos, cuts, step, capped, refreshes,
-                         tuple(history), target)
+                         tuple(history), None if target == rtol else target)
+
+    def aim():
+        return "" if target == rtol else (f" (rtol {rtol:.1e} was reached, but confirm "
+                                          f"refused rest there: aiming at {target:.1e})")
 
     def at_rest():
         nonlocal target
@@ -187,8 +191,8 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
                     saved_at = now
                 if max_time is not None and now - start > max_time:
                     raise RelaxationError(f"FIRE reached its time limit {max_time:.0f} s at "
-                                          f"step {step}, relative residual {r:.2e}", y, history,
-                                          step)
+                                          f"step {step}, relative residual {r:.2e}{aim()}", y,
+                                          history, step)
         last = snapshot()                           # the step limit: after its last step
     finally:
         if bar is not None:
@@ -198,6 +202,7 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
                 checkpoint(last)
             except Exception as err:       # never at the cost of the answer or its error
                 warnings.warn(f"FIRE: the last checkpoint was not written: {err}")
-    raise RelaxationError(f"FIRE did not reach relative residual {target:.1e} in {max_steps} "
-                          f"steps (last {history[-1] if history else float('nan'):.2e})", y,
-                          history, step)
+    raise RelaxationError(f"FIRE did not reach relative residual {rtol:.1e}"
+                          f"{' at rest' if confirm is not None else ''} in "
+                          f"{max_steps} steps (last {history[-1] if history else float('nan'):.2e})"
+                          f"{aim()}", y, history, step)

@@ -78,24 +78,31 @@ def lowest_eigenvalues(model, y, k=6):
     return np.sort(vals), scale
 
 
-def equilibrium_distance(model, y):
+def equilibrium_distance(model, y, refine=2):
     """How far the equilibrium is from y, by one Newton step d = -H^-1 g
     (rigid motions of a free body lifted out): the largest control-point move
-    of d (length, the model's units), or None where d does not descend (H not
-    positive definite: a saddle, which :func:`stability` reports).
+    of d (length, the model's units); 0 where the force is below the model's
+    round-off floor; None where d does not descend (then the state is not near
+    a minimum; whether H is definite is :func:`stability`'s to say).
 
     Near a minimum the residual alone does not say this: a relative residual of
     1e-6 against the stiff stretching forces can leave a soft mode (a swatch
     rolling, yarn sliding) far from rest.  The quadratic model is exact to
-    second order, so the estimate is the remaining move where it is small."""
+    second order, so the estimate is the remaining move where it is small.
+    The LU carries a tiny shift (the rigid null space of a free body would
+    make it singular); ``refine`` steps of iterative refinement against the
+    unshifted lifted Hessian take the shift's bias out of the soft modes."""
     _, g, _ = model.reduced_energy(y)
     if np.linalg.norm(g) <= getattr(model, "roundoff", 0.0):
         return 0.0                  # no force above round-off: nothing to measure
     H = model.reduced_hessian(y).tocsc()
     scale = float(np.abs(H.diagonal()).max())
-    # the shift only regularises the rigid null space of a free body (lifted anyway)
-    solve = _lifted_inverse(H, rigid_modes(model, y), scale, -1e-12 * scale)
+    R = rigid_modes(model, y)
+    solve = _lifted_inverse(H, R, scale, -1e-12 * scale)
+    lifted = (lambda x: H @ x) if R is None else (lambda x: H @ x + scale * (R @ (R.T @ x)))
     d = -solve(g)
+    for _ in range(refine):
+        d += solve(-g - lifted(d))
     if not np.all(np.isfinite(d)) or g @ d >= 0.0:
         return None
     Z, _ = model.reduction()

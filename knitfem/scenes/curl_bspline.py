@@ -77,22 +77,33 @@ def _check_count(name, value, minimum):
 
 class AtRest:
     """FIRE's ``confirm``: the Newton step to the nearest equilibrium moves no
-    control point more than ``tol`` (mm); ``distance`` keeps the last answer
-    (None: the step does not descend, the Hessian is indefinite) and ``y`` the
-    state it was measured at."""
+    control point more than ``tol`` (mm; inf: no check); ``distance`` keeps
+    the last answer (None: the step does not descend, or not measured), ``y``
+    the state it was measured at and ``failure`` why it could not be measured
+    (then the residual alone decides, as before the check existed)."""
 
     def __init__(self, model, tol):
         self.model, self.tol = model, float(tol)
-        self.y = self.distance = None
+        self.y = self.distance = self.failure = None
 
     def measure(self, y):
+        if np.isinf(self.tol):
+            return None
         if self.y is None or not np.array_equal(self.y, y):
-            self.distance = stability.equilibrium_distance(self.model, y)
             self.y = np.array(y, copy=True)
+            try:
+                self.distance, self.failure = stability.equilibrium_distance(self.model, y), None
+            except (RuntimeError, MemoryError, ValueError, np.linalg.LinAlgError) as err:
+                # never at the cost of hours of relaxation: say so, decide by the residual
+                self.distance, self.failure = None, f"{type(err).__name__}: {err}"
+                warnings.warn(f"distance to rest not measured ({self.failure}); the residual "
+                              "alone decides")
         return self.distance
 
     def __call__(self, y):
         distance = self.measure(y)
+        if np.isinf(self.tol) or self.failure is not None:
+            return True
         return distance is not None and distance <= self.tol
 
 
@@ -109,7 +120,8 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
     (:func:`~knitfem.bspline.fire.relax_fire`).  rest_tol: the largest move
     to the nearest equilibrium (yarn radii) that counts as at rest (FIRE goes
     on until it holds; reported as ``equilibrium_distance_over_r`` for either
-    method, None where the Hessian is indefinite)."""
+    method, None where the Newton step does not descend or was not measured;
+    inf switches the check off)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if method != "fire" and (state is not None or checkpoint is not None):
@@ -117,8 +129,9 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
                          "dynamic relaxation keeps no state to go on from)")
     model = bswatch.model
     radius = bswatch.swatch.radius
-    if not (np.isfinite(rest_tol) and rest_tol > 0):
-        raise ValueError(f"rest_tol must be a positive number of yarn radii, got {rest_tol!r}")
+    if isinstance(rest_tol, bool) or not (isinstance(rest_tol, (int, float)) and rest_tol > 0):
+        raise ValueError(f"rest_tol must be a positive number of yarn radii (inf: no check), "
+                         f"got {rest_tol!r}")
     rest = AtRest(model, rest_tol * radius)
     y = model.reduce(model._initial()) if state is None else state.y
     start = time.perf_counter()
@@ -157,12 +170,19 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
     distance = rest.measure(y)
     info["equilibrium_distance_over_r"] = None if distance is None else distance / radius
     at_rest = rest(y)
-    if info["converged"] and converged(g, ref, rtol, model) and not at_rest:
-        # the dynamic relaxation's criteria held (FIRE's cannot end so)
-        info["message"] = info["message"] + (f"residual {info['residual']:.1e} reached but not at rest: the "
-                            "Newton step to the nearest equilibrium moves a control point "
-                            + ("along negative curvature" if distance is None else
-                               f"{distance / radius:.3g} r (rest_tol {rest_tol:g} r)"))
+    notes = [info["message"]] if info["message"] else []
+    if rest.failure is not None:
+        notes.append(f"distance to rest not measured ({rest.failure}): the residual alone "
+                     "decided")
+    elif info["converged"] and converged(g, ref, rtol, model) and not at_rest:
+        # the dynamic relaxation's own criteria held, or a kept Newton finish moved y
+        notes.append(f"residual {info['residual']:.1e} reached but not at rest: the Newton "
+                     "step to the nearest equilibrium "
+                     + ("does not descend" if distance is None else
+                        f"moves a control point {distance / radius:.3g} r (rest_tol "
+                        f"{rest_tol:g} r)"))
+    info["message"] = "; ".join(notes)
+    info["rest_tol"] = float(rest_tol)
     info["converged"] = info["converged"] and converged(g, ref, rtol, model) and at_rest
     # below the round-off floor: the relative residual cannot say more
     info["roundoff_limited"] = bool(np.linalg.norm(g) <= model.roundoff)
@@ -339,6 +359,7 @@ def summarise(bs, y, info):
         "height": float(shape.height), "height_over_width": float(shape.height_over_width),
         "converged": bool(info["converged"]), "residual": info["residual"],
         "equilibrium_distance_over_r": info.get("equilibrium_distance_over_r"),
+        "rest_tol": info.get("rest_tol"),
         "stable": is_stable, "lowest_eigenvalue": lowest,
         "max_penetration_over_d": overlap(pts, model.contact_pairs(q), model.contact),
         "dofs": int(y.size), "iterations": int(info["iterations"]),
