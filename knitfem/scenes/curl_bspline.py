@@ -18,8 +18,9 @@ criterion); FIRE then also asks the Newton step to the nearest equilibrium
 point more than ``rest_tol`` yarn radii, and goes on towards ten times smaller
 residuals until it does (a relative residual against the stiff stretching
 forces can leave a rolling swatch radii from rest).  ``newton=True`` then tries
-to finish with Newton to ``newton_rtol`` (kept only if it gets there).  Every answer says whether it converged; a
-run that runs out of time returns its last state with ``converged: false``.
+to finish with Newton to ``newton_rtol`` (kept only if it gets there).  Every
+answer says whether it converged; a run that runs out of time returns its last
+state with ``converged: false``.
 Stability: the lowest eigenvalue of the reduced Hessian with the six rigid
 motions lifted (:mod:`knitfem.bspline.stability`).  Curl: the shared output
 analysis :func:`knitfem.analysis.curl.swatch_curl` on the deformed yarn points.
