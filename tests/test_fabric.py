@@ -318,7 +318,8 @@ def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_pa
     from knitfem.cli import main
     out = tmp_path / "b.json"
     assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--max-time", "2",
-                 "--quiet", "--no-render", "--json", str(out), "--out", str(tmp_path / "run")]) == 3
+                 "--rest-tol", "0.5", "--quiet", "--no-render", "--json", str(out),
+                 "--out", str(tmp_path / "run")]) == 3
     # the run's manifest lists the options that describe it, not the beam's
     parameters = json.loads((tmp_path / "run" / "run.json").read_text())["parameters"]
     assert parameters["max_time"] == 2.0 and parameters["model"] == "bspline"
@@ -326,10 +327,18 @@ def test_curl_command_runs_the_bspline_model_and_says_it_did_not_converge(tmp_pa
     summary = json.loads(out.read_text())
     assert summary["model"] == "bspline" and summary["converged"] is False
     assert "time limit" in summary["message"]
+    assert summary["rest_tol"] == parameters["rest_tol"] == 0.5
+    assert summary["equilibrium_distance_over_r"] is None or \
+        summary["equilibrium_distance_over_r"] > 0
     # --quiet hides the progress, not the failure: one line on stderr
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith("knitfem curl: ") and "converged False" in err[-1]
     assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--friction", "0.1"]) == 2
+    # the rest check is the B-spline's: refused for the beam, and out of range by name
+    assert main(["curl", "--nw", "3", "--nc", "4", "--rest-tol", "0.2"]) == 2
+    assert main(["curl", "--model", "bspline", "--nw", "3", "--nc", "4", "--rest-tol", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--rest-tol does not apply to --model beam" in err and "--rest-tol must be" in err
 
 
 def test_a_failed_increment_retries_from_the_last_equilibriums_friction_anchors(monkeypatch):

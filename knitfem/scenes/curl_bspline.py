@@ -334,7 +334,8 @@ def bspline_curl_from_options(args):
                         radius=args.radius, bindoff_stiffness=args.bindoff_stiffness,
                         constants=YarnConstants(ea_over_ei=float(args.ea_over_ei)),
                         max_time=args.max_time, out=args.out, progress=not args.quiet,
-                        resume=getattr(args, "resume", False))
+                        resume=getattr(args, "resume", False),
+                        rest_tol=getattr(args, "rest_tol", None) or 0.1)
 
 
 def summarise(bs, y, info):

@@ -6,7 +6,7 @@
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
                  [--bindoff-prestretch] [--tail-ties 1] [--paths default,coarse]
                  [--reanchor SHARE] [--max-rounds 4] [--snap-rounds 8] [--settle N]
-                 [--out DIR]
+                 [--max-time 1800] [--rest-tol 0.1] [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
 Cost model (beam): ``S_PER_DOF_ITERATION x unknowns x ITERATIONS x loops^0.25``
@@ -132,6 +132,11 @@ OPTIONS = OptionSet(
     Real("--max-time", 1800.0, "(0, 1e+06]", when=("model", "bspline", "the beam relaxation "
          "runs to convergence or fails"), help="bspline: seconds of relaxation before the "
          "last state is reported as not converged"),
+    Real("--rest-tol", 0.1, "(0, 100]", when=("model", "bspline", "the beam relaxation ends "
+         "on Newton at a relative residual of 1e-8"), help="bspline: the largest move to the "
+         "nearest equilibrium (one Newton step), in yarn radii, that counts as at rest; FIRE "
+         "goes on to smaller residuals until it holds (README: 'At rest, not only a small "
+         "residual')"),
     Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
          help="bind-off stiffness relative to the yarn's"),
     Integer("--tail-ties", 1, "[1, 4]", when=("model", "beam", "the bspline scene ties "

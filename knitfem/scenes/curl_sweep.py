@@ -35,7 +35,7 @@ COLUMNS = ("nw", "nc", "nw_over_nc", "model", "status", "curl",
            "friction_settled", "residual", "curl_types", "elapsed_s", "message", "error")
 # curl options of each model (the keys :func:`curl_point` passes on)
 BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_stiffness",
-                   "ea_over_ei", "max_time", "max_steps", "method", "rtol")
+                   "ea_over_ei", "max_time", "max_steps", "method", "rtol", "rest_tol")
 BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiffness",
                 "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch",
                 "tail_ties", "paths", "reanchor", "max_rounds", "snap_rounds", "settle")
