@@ -22,7 +22,8 @@ import warnings
 
 import numpy as np
 
-from .relax import Relaxed, RelaxationError, converged, progress_bar, step_numbers
+from .relax import (Relaxed, RelaxationError, converged, largest_move, progress_bar,
+                    step_numbers)
 
 
 class FireState(NamedTuple):
@@ -162,7 +163,7 @@ def relax_fire(model, y0, *, rtol=1e-6, max_steps=200000, dt_max=1.0, n_delay=20
             vn, fn = np.sqrt(v @ (m * v)), np.sqrt(F @ (F / m))
             if P > 0 and fn > 0:
                 v = (1.0 - a) * v + a * (vn / fn) * (F / m)
-            move = dt * np.sqrt(np.max(((Z @ v).reshape(-1, 3) ** 2).sum(axis=1)))
+            move = dt * largest_move(Z, v)
             if move > max_move:
                 v *= max_move / move
                 capped += 1

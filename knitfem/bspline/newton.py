@@ -18,7 +18,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import linalg as splinalg
 
-from .relax import Relaxed, RelaxationError, converged, progress_bar
+from .relax import Relaxed, RelaxationError, converged, largest_move, progress_bar
 
 
 @dataclass
@@ -56,7 +56,7 @@ def relax_newton(model, y0, *, rtol=1e-8, atol=0.0, max_iter=100, max_move=None,
             H = model.reduced_hessian(y)
             D = np.maximum(np.abs(H.diagonal()), 1e-300)
             step, mu = _descent(H, D, g, mu, mu_min, report)
-            step *= min(1.0, max_move / _largest_move(Z, step))
+            step *= min(1.0, max_move / max(largest_move(Z, step), 1e-300))
             predicted = -(g @ step + 0.5 * step @ (H @ step))
             E_new, g_new, ref_new = model.reduced_energy(y + step)
             rho = (E - E_new) / predicted if predicted > 0 else -1.0
@@ -80,12 +80,6 @@ def relax_newton(model, y0, *, rtol=1e-8, atol=0.0, max_iter=100, max_move=None,
             bar.close()
     raise RelaxationError(f"Newton did not reach relative residual {rtol:.1e} in {max_iter} "
                           f"steps (last {history[-1]:.2e})", y, history)
-
-
-def _largest_move(Z, step):
-    move = (Z @ step).reshape(-1, 3)
-    return max(float(np.sqrt((move**2).sum(axis=1)).max()), 1e-300)
-
 
 
 def _done(model, y, iterations, history, E, report):

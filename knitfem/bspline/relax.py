@@ -81,6 +81,12 @@ def _residual(model, y):
     return E, g, float(np.linalg.norm(g) / max(ref, 1e-300))
 
 
+def largest_move(Z, step):
+    """The largest control-point move (length) of a step of the reduced
+    coordinates: Z maps them to the control points (:meth:`reduction`)."""
+    return float(np.sqrt(((Z @ step).reshape(-1, 3) ** 2).sum(axis=1)).max())
+
+
 def converged(g, ref, rtol, model, atol=0.0):
     """|g| <= rtol ref, or <= atol (a force scale the caller fixes, for states
     whose forces all vanish), or below the model's round-off floor (a fixed

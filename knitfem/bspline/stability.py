@@ -15,6 +15,8 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import linalg as splinalg
 
+from .relax import largest_move
+
 DENSE_LIMIT = 2000
 ZERO = 1e-9            # |lambda| below ZERO x max|diag H|: round-off, counted as stable
 
@@ -105,8 +107,7 @@ def equilibrium_distance(model, y, refine=2):
         d += solve(-g - lifted(d))
     if not np.all(np.isfinite(d)) or g @ d >= 0.0:
         return None
-    Z, _ = model.reduction()
-    return float(np.sqrt(((Z @ d).reshape(-1, 3) ** 2).sum(axis=1)).max())
+    return largest_move(model.reduction()[0], d)
 
 
 def stability(model, y):

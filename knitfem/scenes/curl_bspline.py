@@ -168,14 +168,15 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
             info["message"] = f"Newton finish not kept: {err}"
     E, g, ref = model.reduced_energy(y)
     info["residual"] = float(np.linalg.norm(g) / ref)
-    distance = rest.measure(y)
+    at_rest = rest(y)                   # measures the distance (once per state)
+    distance = rest.distance
     info["equilibrium_distance_over_r"] = None if distance is None else distance / radius
-    at_rest = rest(y)
+    small = info["converged"] and converged(g, ref, rtol, model)
     notes = [info["message"]] if info["message"] else []
     if rest.failure is not None:
         notes.append(f"distance to rest not measured ({rest.failure}): the residual alone "
                      "decided")
-    elif info["converged"] and converged(g, ref, rtol, model) and not at_rest:
+    elif small and not at_rest:
         # the dynamic relaxation's own criteria held, or a kept Newton finish moved y
         notes.append(f"residual {info['residual']:.1e} reached but not at rest: the Newton "
                      "step to the nearest equilibrium "
@@ -184,7 +185,7 @@ def relax_swatch(bswatch, *, method="fire", rtol=1e-6, max_time=1800.0, max_step
                         f"{rest_tol:g} r)"))
     info["message"] = "; ".join(notes)
     info["rest_tol"] = float(rest_tol)
-    info["converged"] = info["converged"] and converged(g, ref, rtol, model) and at_rest
+    info["converged"] = small and at_rest
     # below the round-off floor: the relative residual cannot say more
     info["roundoff_limited"] = bool(np.linalg.norm(g) <= model.roundoff)
     return y, info
