@@ -805,6 +805,21 @@ def test_a_checkpoint_from_before_a_scene_field_existed_resumes_with_its_default
                                     model)
 
 
+def _converged_rounds(monkeypatch, next_state):
+    """Script the friction rounds: each converges at once (residual 1e-9) on
+    ``next_state(state)``."""
+    class Result:
+        pass
+
+    def scripted(model, state, lam, tol, iterations, progress=None, reanchor=None):
+        result = Result()
+        result.state = next_state(state)
+        result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
+        result.stopped = False
+        return result, np.inf
+    monkeypatch.setattr(fabric_relax, "_round", scripted)
+
+
 @pytest.mark.parametrize("move, settled", [(0.0, True), (0.5, False)])
 def test_an_answer_whose_friction_did_not_settle_says_so(monkeypatch, move, settled):
     """The final increment ends when a converged round moved nothing (the
@@ -815,17 +830,7 @@ def test_an_answer_whose_friction_did_not_settle_says_so(monkeypatch, move, sett
     from knitfem.beam.model import BeamState
     model, _, _ = build(FabricScene(3, 3, elements_per_loop=16))
     r = model.rods[0].section.radius
-
-    class Result:
-        pass
-
-    def moving(model, state, lam, tol, iterations, progress=None, reanchor=None):
-        result = Result()
-        result.state = BeamState(stretched(state.x, move * r), state.q)
-        result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
-        result.stopped = False
-        return result, np.inf
-    monkeypatch.setattr(fabric_relax, "_round", moving)
+    _converged_rounds(monkeypatch, lambda state: BeamState(stretched(state.x, move * r), state.q))
     eq = fabric_relax.relax_fabric(model, Homotopy(model, 0.05), dlam=1.0)
     assert eq.friction_settled is settled
     assert eq.last_round_move == pytest.approx(move * r)
@@ -844,17 +849,10 @@ def test_a_round_that_only_moves_the_free_swatch_rigidly_has_settled(monkeypatch
     assert model.free_floating
     turn = Rotation.from_rotvec([0.0, 0.0, 0.01])          # 0.57 deg: ~0.1 mm at the edges
 
-    class Result:
-        pass
-
-    def turning(model, state, lam, tol, iterations, progress=None, reanchor=None):
-        result = Result()
+    def turning(state):
         q = quat_multiply(np.broadcast_to(np.roll(turn.as_quat(), 1), state.q.shape), state.q)
-        result.state = type(state)(turn.apply(state.x) + [0.05, 0.0, 0.0], q)
-        result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
-        result.stopped = False
-        return result, np.inf
-    monkeypatch.setattr(fabric_relax, "_round", turning)
+        return type(state)(turn.apply(state.x) + [0.05, 0.0, 0.0], q)
+    _converged_rounds(monkeypatch, turning)
     eq = fabric_relax.relax_fabric(model, Homotopy(model, 0.05), dlam=1.0)
     assert eq.friction_settled is True and eq.last_round_move < 1e-9
     assert eq.increments[-1].iterations == 2
@@ -873,17 +871,7 @@ def test_rounds_that_cycle_between_two_states_are_reported_as_a_cycle(monkeypatc
     a = model.initial_state()
     b = type(a)(stretched(a.x, 0.01 * r), a.q.copy())
     states = itertools.cycle([b, a])
-
-    class Result:
-        pass
-
-    def cycling(model, state, lam, tol, iterations, progress=None, reanchor=None):
-        result = Result()
-        result.state = next(states)
-        result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
-        result.stopped = False
-        return result, np.inf
-    monkeypatch.setattr(fabric_relax, "_round", cycling)
+    _converged_rounds(monkeypatch, lambda state: next(states))
     eq = fabric_relax.relax_fabric(model, Homotopy(model, 0.05), a, dlam=1.0)
     assert eq.friction_settled is False and eq.increments[-1].iterations == 8
     assert eq.last_round_move == pytest.approx(0.01 * r) and eq.two_round_move == 0.0
