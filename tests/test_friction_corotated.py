@@ -121,3 +121,42 @@ def test_corotated_friction_depends_on_the_turns_not_on_their_rotation_vectors(p
     assert np.abs(g1 - g0).max() <= 1e-9 * np.abs(g0).max()
     fixed = friction_forces(c.anchors, s.x[a], s.x[b], c.slip, False, other)[0]
     assert abs(fixed - E0) > 1e-3 * E0            # the fixed-plane friction's rotation term
+
+
+def _geometric_by_einsum(g3, pieces, s):
+    """The batched-einsum formulation of corotated_geometric (the code before
+    its numba kernel), kept as the reference the kernel must reproduce."""
+    from knitfem.contact.corotated import hat
+    R_m, v, m, arm_s, C = pieces
+    k = len(g3)
+    G = np.einsum("kij,kj->ki", R_m, g3)
+    eye = np.eye(3)[None]
+    Gv, Gm = np.sum(G * v, axis=1)[:, None, None], np.sum(G * m, axis=1)[:, None, None]
+    outer = lambda p, q: p[:, :, None] * q[:, None, :]      # noqa: E731
+    phi = np.zeros((k, 2, 3, 2, 3))
+    phi[:, 0, :, 0, :] = -arm_s[:, None, None] * (0.5 * (outer(G, m) + outer(m, G)) - Gm * eye)
+    phi[:, 1, :, 1, :] = 0.5 * (outer(G, v) + outer(v, G)) - Gv * eye
+    phi[:, 1, :, 0, :] = arm_s[:, None, None] * (outer(m, G) - Gm * eye)
+    phi[:, 0, :, 1, :] = np.swapaxes(phi[:, 1, :, 0, :], 1, 2)
+    side = np.array([0, 0, 1, 1])
+    K = np.zeros((k, 10, 3, 10, 3))
+    K[:, 6:, :, 6:, :] = np.einsum("kbji,kbjcl,kclm->kbicm", C, phi[:, side][:, :, :, side], C)
+    tm = np.einsum("kbji,kjl,ka->kbial", C[:, 2:], hat(G), s)
+    K[:, 8:, :, :6, :] = tm
+    K[:, :6, :, 8:, :] = tm.transpose(0, 3, 4, 1, 2)
+    return K.reshape(k, 30, 30)
+
+
+def test_geometric_kernel_reproduces_the_einsum_formulation():
+    from knitfem.contact.corotated import corotated_geometric
+    rng = np.random.default_rng(7)
+    k = 57
+    R_m = Rotation.random(k, random_state=3).as_matrix()
+    pieces = (R_m, rng.normal(size=(k, 3)), rng.normal(size=(k, 3)), rng.uniform(0.1, 1, k),
+              rng.normal(size=(k, 4, 3, 3)))
+    g3, s = rng.normal(size=(k, 3)), rng.uniform(0, 1, (k, 6))
+    K = corotated_geometric(g3, pieces, s)
+    ref = _geometric_by_einsum(g3, pieces, s)
+    assert K.shape == (k, 30, 30)
+    assert np.max(np.abs(K - ref)) <= 1e-13 * np.max(np.abs(ref))
+    assert np.array_equal(K == 0.0, ref == 0.0)       # the same blocks, nothing else
