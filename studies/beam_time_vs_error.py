@@ -19,7 +19,7 @@ those increments' rolls, matched by position and lam.
 import argparse
 import csv
 import json
-from dataclasses import fields
+from dataclasses import asdict
 from pathlib import Path
 
 import matplotlib
@@ -28,17 +28,14 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from knitfem.scenes.fabric_relax import Increment  # noqa: E402
+from knitfem.scenes.curl import increments_of  # noqa: E402
 
 EDGES = ("left", "right", "top", "bottom")
-# a checkpoint's increment columns (older checkpoints have fewer: the rest read as nan)
-COLUMNS = tuple(f.name for f in fields(Increment))
 
 
 def increments(run):
     data = np.load(run / "checkpoint.npz")
-    table = [{**dict.fromkeys(COLUMNS, np.nan), **dict(zip(COLUMNS, row))}
-             for row in data["increments"]]
+    table = [asdict(inc) for inc in increments_of(data, run / "checkpoint.npz")]
     return json.loads(str(data["scene"])), table
 
 

@@ -885,9 +885,28 @@ def test_rounds_that_cycle_between_two_states_are_reported_as_a_cycle(monkeypatc
     kept = curl_module.load_checkpoint(path, scene, model)[3]
     assert kept[-1].cycle == 0.0 and kept[-1].moved == eq.increments[-1].moved
     data = dict(np.load(path))
+    assert list(data["increment_fields"]) == list(curl_module.INCREMENT_FIELDS)
+    # columns named: read by name, whatever their order
+    order = np.arange(len(curl_module.INCREMENT_FIELDS))[::-1]
+    np.savez(path, **{**data, "increments": data["increments"][:, order],
+                      "increment_fields": data["increment_fields"][order]})
+    from dataclasses import astuple
+    np.testing.assert_array_equal([astuple(i) for i in curl_module.load_checkpoint(
+        path, scene, model)[3]], [astuple(i) for i in kept])
+    # a column this code does not know: refused by name, not read into another field
+    np.savez(path, **{**data, "increment_fields": np.array(
+        [*data["increment_fields"][:-1], "future_column"])})
+    with pytest.raises(ValueError, match="future_column"):
+        curl_module.load_checkpoint(path, scene, model)
+    # written before the columns were named, and before the two-round move: by position
+    data.pop("increment_fields")
     data["increments"] = data["increments"][:, :8]                 # before the column
     np.savez(path, **data)
-    assert np.isnan(curl_module.load_checkpoint(path, scene, model)[3][-1].cycle)
+    old = curl_module.load_checkpoint(path, scene, model)[3]
+    assert np.isnan(old[-1].cycle) and old[-1].moved == kept[-1].moved
+    data["increments"] = data["increments"][:, :6]                 # before `accepted`
+    np.savez(path, **data)
+    assert all(inc.accepted for inc in curl_module.load_checkpoint(path, scene, model)[3])
 
 
 def test_extra_final_rounds_survive_a_resume(monkeypatch, tmp_path):

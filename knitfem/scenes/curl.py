@@ -17,7 +17,7 @@ atomically) from which ``resume`` continues after a kill.
 import json
 import os
 import time
-from dataclasses import astuple
+from dataclasses import astuple, fields
 from pathlib import Path
 
 import numpy as np
@@ -25,10 +25,33 @@ import numpy as np
 from ..io.atomic import write_json
 from ..io.run import source
 from .fabric import FabricScene, Homotopy, build, yarn_axial_strain
-from .fabric_relax import FabricRelaxationError, relax_fabric
+from .fabric_relax import FabricRelaxationError, Increment, relax_fabric
 from .fabric_rounds import SNAP_ROUNDS, settle_passes
 
 VIEWS = {"front": (0.0, 0.0, 1.0), "side": (1.0, 0.0, 0.0), "iso": (1.0, -1.0, 0.8)}
+
+
+INCREMENT_FIELDS = tuple(f.name for f in fields(Increment))
+
+
+def increments_of(data, path="checkpoint"):
+    """The :class:`Increment` rows of a checkpoint, read by the column names it
+    carries; one written before it carried them is read by position (columns
+    were only ever appended: six, then ``accepted``, ``moved``, ``cycle``), the
+    columns it lacks at their defaults.  A column this code does not know is
+    refused by name (a newer checkpoint), never read into another field."""
+    rows = np.asarray(data["increments"], float)
+    rows = rows.reshape(len(rows), -1) if rows.size else np.zeros((0, len(INCREMENT_FIELDS)))
+    names = ([str(n) for n in data["increment_fields"]] if "increment_fields" in data.files
+             else list(INCREMENT_FIELDS[:rows.shape[1]]))
+    unknown = sorted(set(names) - set(INCREMENT_FIELDS))
+    if unknown or len(names) != rows.shape[1]:
+        raise ValueError(f"{path}: increment columns {unknown or names} do not match this "
+                         f"code's {list(INCREMENT_FIELDS)} (a checkpoint of another version)")
+    kinds = {f.name: f.type for f in fields(Increment)}
+    cast = {"int": int, "bool": bool, int: int, bool: bool}
+    return [Increment(**{n: cast.get(kinds[n], float)(v) for n, v in zip(names, row)})
+            for row in rows]
 
 
 def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial=None, *,
@@ -42,7 +65,8 @@ def _save_checkpoint(path, scene, state, lam, dlam, increments, contact, partial
     data = {"x": state.x, "q": state.q, "lam": lam, "dlam": dlam,
             "scene": json.dumps(scene.as_dict(), sort_keys=True),
             "protocol": json.dumps(protocol, sort_keys=True),
-            "increments": np.array([astuple(i) for i in increments])}   # Increment's fields
+            "increments": np.array([astuple(i) for i in increments]),
+            "increment_fields": np.array(INCREMENT_FIELDS)}
     anchors = [("", partial.equilibrium if partial is not None else
                 (contact.friction_state() if contact is not None else None))]
     if partial is not None:
@@ -133,7 +157,7 @@ def load_checkpoint(path, scene, model, protocol=None):
     equilibrium's friction anchors."""
     from ..beam.model import BeamState
     from ..contact.friction import Anchors
-    from .fabric_relax import Increment, Partial
+    from .fabric_relax import Partial
     if not path.exists():
         return None
     data = np.load(path)
@@ -147,13 +171,7 @@ def load_checkpoint(path, scene, model, protocol=None):
     contact = model.contact_model
     if contact is not None and "anchor_key" in data.files:
         contact.restore_friction(friction(""))
-    # (a checkpoint from before failed attempts were kept has six columns,
-    # from before the last round's move was kept seven, its two-round move eight)
-    increments = [Increment(float(r[0]), int(r[1]), *map(float, r[2:6]),
-                            bool(r[6]) if len(r) > 6 else True,
-                            float(r[7]) if len(r) > 7 else float("nan"),
-                            float(r[8]) if len(r) > 8 else float("nan"))
-                  for r in data["increments"]]
+    increments = increments_of(data, path)
     partial = None
     if "partial_x" in data.files:
         target, rounds, iterations, gap, seconds = data["partial_numbers"]
