@@ -898,6 +898,11 @@ def test_rounds_that_cycle_between_two_states_are_reported_as_a_cycle(monkeypatc
         [*data["increment_fields"][:-1], "future_column"])})
     with pytest.raises(ValueError, match="future_column"):
         curl_module.load_checkpoint(path, scene, model)
+    twice = np.array([*data["increment_fields"][:-1], "lam"])          # a column read twice
+    short = {"increments": data["increments"][:, :5]}                   # fewer than the six
+    for bad in ({**data, "increment_fields": twice}, short):
+        with pytest.raises(ValueError, match="not this code's"):
+            curl_module.increments_of(bad)
     # written before the columns were named, and before the two-round move: by position
     data.pop("increment_fields")
     data["increments"] = data["increments"][:, :8]                 # before the column

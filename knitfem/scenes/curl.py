@@ -17,7 +17,7 @@ atomically) from which ``resume`` continues after a kill.
 import json
 import os
 import time
-from dataclasses import astuple, fields
+from dataclasses import MISSING, astuple, fields
 from pathlib import Path
 
 import numpy as np
@@ -42,12 +42,15 @@ def increments_of(data, path="checkpoint"):
     refused by name (a newer checkpoint), never read into another field."""
     rows = np.asarray(data["increments"], float)
     rows = rows.reshape(len(rows), -1) if rows.size else np.zeros((0, len(INCREMENT_FIELDS)))
-    names = ([str(n) for n in data["increment_fields"]] if "increment_fields" in data.files
+    names = ([str(n) for n in data["increment_fields"]] if "increment_fields" in data
              else list(INCREMENT_FIELDS[:rows.shape[1]]))
-    unknown = sorted(set(names) - set(INCREMENT_FIELDS))
-    if unknown or len(names) != rows.shape[1]:
-        raise ValueError(f"{path}: increment columns {unknown or names} do not match this "
-                         f"code's {list(INCREMENT_FIELDS)} (a checkpoint of another version)")
+    required = [f.name for f in fields(Increment) if f.default is MISSING]
+    wrong = (sorted(set(names) - set(INCREMENT_FIELDS)) or len(set(names)) != len(names) or
+             len(names) != rows.shape[1] or not set(required) <= set(names))
+    if wrong:
+        raise ValueError(f"{path}: its {rows.shape[1]} increment columns ({', '.join(names)}) "
+                         f"are not this code's ({', '.join(INCREMENT_FIELDS)}; at least "
+                         f"{', '.join(required)}): a checkpoint of another version")
     kinds = {f.name: f.type for f in fields(Increment)}
     cast = {"int": int, "bool": bool, int: int, bool: bool}
     return [Increment(**{n: cast.get(kinds[n], float)(v) for n, v in zip(names, row)})
