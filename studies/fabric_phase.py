@@ -13,6 +13,7 @@ progress bar over points.
     python studies/fabric_phase.py --out DIR --scheduler tcp://host:8786
     python studies/fabric_phase.py --model beam --nw 5 --nc 5 --out DIR
     python studies/fabric_phase.py --model beam --resume --adopt RUN/curl_10x35.json --out DIR
+    python studies/fabric_phase.py --out DIR --report              # what DIR holds so far
 
 Models: ``bspline`` (default; the paper's B-spline yarns, FIRE within
 ``--max-time`` seconds per point and optionally ``--max-steps``: a point out
@@ -25,6 +26,12 @@ DIR/phase_trends.png (H and w/c vs N_w/N_c), DIR/run.json (complete: true
 last) and the sweep's DIR/sweep.json + DIR/points/ (per point: its JSON
 record, the relaxed yarns curl.vtu and the model's full summary curl.json).
 Exit 0, 3 when a point failed, 2 on bad options, 130 / 143 when interrupted.
+
+``--report`` relaxes nothing: it draws the points a sweep folder holds so far
+(a grid that takes days is run over several sessions) into DIR/report/ —
+phase.csv, phase.json, phase_diagram.png, phase_trends.png, the points not run
+yet as small grey dots — leaving the sweep's own files alone, so it may run
+beside the sweep itself.  The model and scene are the sweep's (sweep.json).
 """
 import argparse
 import dataclasses
@@ -37,10 +44,10 @@ from knitfem.io.run import RunFolder
 from knitfem.options import Check, Integer, OptionSet, Real, refuse
 from knitfem.scenes import curl_command
 from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS, MODELS, adopt_run, \
-    phase_sweep
-from knitfem.scenes.phase_output import plot_phase_diagram, plot_phase_trends, point_state, \
-    write_phase_csv
-from knitfem.sweep import add_sweep_options, parse_study, sweep_main
+    phase_rows, phase_sweep
+from knitfem.scenes.phase_output import STATES, plot_phase_diagram, plot_phase_trends, \
+    point_state, write_phase_csv
+from knitfem.sweep import add_sweep_options, grid, parse_study, sweep_main
 
 NW = (5, 10, 15, 20, 25, 30, 40, 55)
 NC = (5, 10, 15, 20, 25, 30, 35)
@@ -124,7 +131,13 @@ def parse(argv):
                         help="beam, with --resume: store these finished `knitfem curl` runs "
                              "(summary JSON, .vtu beside it) as their grid points first, "
                              "each checked to have the sweep's scene")
+    parser.add_argument("--report", action="store_true",
+                        help="relax nothing: draw the points the --out sweep folder holds so "
+                             "far into DIR/report/ (may run beside the sweep)")
     args = parse_study("fabric_phase", parser, OPTIONS, argv)
+    if args.report and (args.resume or args.adopt):
+        parser.exit(2, "fabric_phase: error: --report reads the folder as it is; it takes no "
+                       "--resume or --adopt\n")
     if args.adopt and not (args.resume and args.model == "beam"):
         parser.exit(2, "fabric_phase: error: --adopt needs --model beam and --resume (without "
                        "--resume the folder's points are removed)\n")
@@ -157,7 +170,46 @@ def replace_counts(args, nw, nc):
     return argparse.Namespace(**{**vars(args), "nw": nw, "nc": nc})
 
 
+def report(args):
+    """Draw what the sweep folder ``args.out`` holds (module docstring); exit 0."""
+    from knitfem.scenes.curl_sweep import curl_point
+    from knitfem.sweep import SweepStore, point_key, task_name
+    store = SweepStore(args.out)
+    manifest = store.manifest()
+    if manifest is None or manifest.get("task") != task_name(curl_point):
+        raise ValueError(f"--report: {args.out} holds no curl sweep (no sweep.json of "
+                         f"{task_name(curl_point)})")
+    model = manifest["constants"]["model"]
+    scene = manifest["constants"].get("curl", {})
+
+    class Held:                                 # the rows' source, as a SweepResult
+        points = grid(nw=args.nw, nc=args.nc)
+        records = []
+    for point in Held.points:
+        record = store.load(point_key(point))
+        Held.records.append(record if record is not None and record.get("params") == point
+                            else None)
+    rows = phase_rows(Held, model)
+    out = store.out / "report"
+    write_phase_csv(rows, out / "phase.csv")
+    done = sum(r is not None for r in Held.records)
+    title = f"{model} curl phase diagram so far ({done} of {len(rows)} points)"
+    plot_phase_diagram(rows, out / "phase_diagram.png", title=title)
+    plot_phase_trends(rows, out / "phase_trends.png",
+                      knitted_aspect=scene.get("w", args.w) / scene.get("c", args.c))
+    states = [point_state(r) for r in rows]
+    write_json(out / "phase.json", {
+        "model": model, "nw": args.nw, "nc": args.nc, "curl_options": scene, "rows": rows,
+        "counts": {s: states.count(s) for s in STATES}, "sweep_complete": manifest.get("complete"),
+        "report": True})
+    print(f"{out}: {done} of {len(rows)} points: " +
+          ", ".join(f"{states.count(s)} {s}" for s in STATES if states.count(s)))
+    return 0
+
+
 def run(args):
+    if args.report:
+        return report(args)
     options = curl_options(args)
     run = RunFolder(args.out, "studies/fabric_phase.py", vars(args),
                     outputs=("phase.csv", "phase.json", "phase_diagram.png",
@@ -181,8 +233,7 @@ def run(args):
         ran = len(rows) - sweep.reused
         write_json(run.path / "phase.json", {
             "model": args.model, "nw": args.nw, "nc": args.nc, "curl_options": options,
-            "rows": rows, "counts": {s: states.count(s) for s in
-                                     ("converged", "not converged", "failed")},
+            "rows": rows, "counts": {s: states.count(s) for s in STATES},
             "wall_s": wall, "points_run": ran, "points_reused": sweep.reused,
             "points_per_hour": 3600.0 * ran / wall if ran and wall > 0 else None,
             "executor": sweep.executor})

@@ -218,15 +218,14 @@ def test_not_converged_points_are_hollow_and_failed_ones_crosses():
     rows = synthetic_rows()
     fig, ax = phase_diagram(rows)
     drawn = {c.get_label(): c for c in ax.collections}
-    assert set(drawn) == {"side", "double", "top/bottom", "side (not converged)",
-                          "failed / not run"}
+    assert set(drawn) == {"side", "double", "top/bottom", "side (not converged)", "failed"}
     for label in ("side", "double", "top/bottom"):                   # converged: filled
         assert drawn[label].get_facecolors()[0][3] == 1.0
     hollow = drawn["side (not converged)"]
     assert hollow.get_facecolors().size == 0 or hollow.get_facecolors()[0][3] == 0.0
     assert np.allclose(hollow.get_edgecolors()[0], to_rgba("0.45"))
     assert hollow.get_offsets().tolist() == [[10, 35]]
-    assert drawn["failed / not run"].get_offsets().tolist() == [[40, 5]]
+    assert drawn["failed"].get_offsets().tolist() == [[40, 5]]
     boundary = [line for line in ax.lines if "N_w/N_c" in line.get_label()][0]
     (x0, x1), (y0, y1) = boundary.get_data()
     assert x0 == y0 == 0 and x1 / y1 == 2.0 and y1 >= 35
@@ -242,8 +241,16 @@ def test_not_converged_points_are_hollow_and_failed_ones_crosses():
     plt.close(fig)
     fig, (ax_h, ax_a) = phase_trends(rows, knitted_aspect=4 / 3)
     drawn = {c.get_label(): c for c in ax_h.collections}
-    assert "failed / not run" not in drawn                          # no H for a failed point
+    assert "failed" not in drawn                                    # no H for a failed point
     assert drawn["side (not converged)"].get_offsets().tolist() == [[10 / 35, 0.1 * 10 / 35]]
+    plt.close(fig)
+    # a grid under way: the points it has not reached are dots, not failures
+    pending = dict(rows[0], nw=30, nc=5, status="not run", curl=None, height=None)
+    fig, ax = phase_diagram(rows + [pending])
+    drawn = {c.get_label(): c for c in ax.collections}
+    assert drawn["not run yet"].get_offsets().tolist() == [[30, 5]]
+    assert drawn["failed"].get_offsets().tolist() == [[40, 5]]
+    assert "1 failed, 1 not run" in ax.get_title()
     plt.close(fig)
 
 
@@ -286,6 +293,18 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     finished = len(records(out))
     assert 1 <= finished < 3 and not (out / "phase.csv").exists()
     assert json.loads((out / "sweep.json").read_text())["complete"] is False
+    # --report draws what is there, relaxing nothing and leaving the sweep's files alone
+    manifest = (out / "sweep.json").read_text()
+    assert load_study().main(study(out, "--report")[2:]) == 0
+    held = json.loads((out / "report" / "phase.json").read_text())
+    assert held["counts"]["not run"] == 3 - finished and held["sweep_complete"] is False
+    assert held["counts"]["not converged"] == finished          # 150 FIRE steps each
+    with open(out / "report" / "phase.csv", newline="") as f:
+        assert [r["status"] for r in csv.DictReader(f)].count("not run") == 3 - finished
+    assert (out / "report" / "phase_diagram.png").stat().st_size > 0
+    assert (out / "sweep.json").read_text() == manifest and len(records(out)) == finished
+    assert not (out / "phase.csv").exists()
+    assert load_study().main(["--out", str(tmp_path / "none"), "--report"]) == 2   # no sweep
 
     assert load_study().main(study(out, "--workers", "0", "--resume")[2:]) == 0   # in here
     result = json.loads((out / "phase.json").read_text())
@@ -315,6 +334,7 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     (["--bindoff-prestretch"], "--bindoff-prestretch applies to --model beam only"),
     (["--model", "beam", "--adopt", "run.json"], "--adopt needs --model beam and --resume"),
     (["--resume", "--adopt", "run.json"], "--adopt needs --model beam and --resume"),
+    (["--report", "--resume"], "--report reads the folder as it is"),
 ])
 def test_bad_options_are_one_line_naming_the_option_exit_2(tmp_path, capsys, args, message):
     with pytest.raises(SystemExit) as stop:
@@ -330,7 +350,7 @@ def test_rows_of_points_that_did_not_run_say_so():
         records = [None]
     row = curl_sweep.phase_rows(Sweep, "bspline")[0]
     assert row["status"] == "not run" and row["curl"] is None and row["model"] == "bspline"
-    assert point_state(row) == "failed"
+    assert point_state(row) == "not run"
 
 
 def test_the_study_hands_its_relaxation_options_to_the_points():

@@ -37,9 +37,14 @@ def write_phase_csv(rows, path):
     return write_csv(path, list(COLUMNS), [[cell(r.get(k)) for k in COLUMNS] for r in rows])
 
 
+STATES = ("converged", "not converged", "failed", "not run")
+
+
 def point_state(row):
-    """"converged", "not converged" (a shape at the time or step limit) or
-    "failed" (no shape: failed, not run)."""
+    """"converged", "not converged" (a shape at the time or step limit),
+    "failed" (no shape) or "not run" (the sweep has not reached it yet)."""
+    if row.get("status") == "not run":
+        return "not run"
     if row.get("status") != "done" or row.get("curl") is None:
         return "failed"
     return "converged" if row.get("converged") else "not converged"
@@ -55,16 +60,18 @@ def _groups(rows):
                 label = curl.replace("_", "/") + ("" if state == "converged"
                                                   else " (not converged)")
                 groups.append((label, state, curl, members))
-    failed = [r for r in rows if point_state(r) == "failed"]
-    if failed:
-        groups.append(("failed / not run", "failed", None, failed))
+    for state, label in (("failed", "failed"), ("not run", "not run yet")):
+        members = [r for r in rows if point_state(r) == state]
+        if members:
+            groups.append((label, state, None, members))
     return groups
 
 
 def scatter_points(ax, rows, x, y, size=70):
     """Scatter rows on ``ax`` at (x(row), y(row)) with the curl markers:
     filled and coloured when converged, hollow and grey when not, grey
-    crosses when failed (skipped where y(row) is None).  Returns the
+    crosses when failed, small grey dots where not run yet (skipped where
+    y(row) is None).  Returns the
     collections by label."""
     drawn = {}
     for label, state, curl, members in _groups(rows):
@@ -77,8 +84,10 @@ def scatter_points(ax, rows, x, y, size=70):
         elif state == "not converged":
             style = dict(marker=MARKERS[curl], facecolors="none", edgecolors=NOT_CONVERGED,
                          linestyle="--")
-        else:
+        elif state == "failed":
             style = dict(marker="x", c=NOT_CONVERGED)
+        else:                       # not run yet: a dot where the grid goes on
+            style = dict(marker=".", c="0.7")
         drawn[label] = ax.scatter(xs, ys, s=size, linewidths=1.3, label=label, zorder=3,
                                   **style)
     return drawn
@@ -86,8 +95,7 @@ def scatter_points(ax, rows, x, y, size=70):
 
 def _counts(rows):
     states = [point_state(r) for r in rows]
-    return ", ".join(f"{states.count(s)} {s}" for s in ("converged", "not converged", "failed")
-                     if states.count(s))
+    return ", ".join(f"{states.count(s)} {s}" for s in STATES if states.count(s))
 
 
 def phase_diagram(rows, title=None):
