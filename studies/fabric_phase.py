@@ -27,6 +27,7 @@ last) and the sweep's DIR/sweep.json + DIR/points/ (per point: its JSON
 record, the relaxed yarns curl.vtu and the model's full summary curl.json).
 Exit 0, 3 when a point failed, 2 on bad options, 130 / 143 when interrupted.
 
+A running sweep redraws DIR/report/ after every point it finishes, and
 ``--report`` relaxes nothing: it draws the points a sweep folder holds so far
 (a grid that takes days is run over several sessions) into DIR/report/ —
 phase.csv, phase.json, phase_diagram.png, phase_trends.png, the points not run
@@ -170,7 +171,7 @@ def replace_counts(args, nw, nc):
     return argparse.Namespace(**{**vars(args), "nw": nw, "nc": nc})
 
 
-def report(args):
+def report(args, quiet=False):
     """Draw what the sweep folder ``args.out`` holds (module docstring); exit 0."""
     from knitfem.scenes.curl_sweep import curl_point
     from knitfem.sweep import SweepStore, point_key, task_name
@@ -202,8 +203,9 @@ def report(args):
         "model": model, "nw": args.nw, "nc": args.nc, "curl_options": scene, "rows": rows,
         "counts": {s: states.count(s) for s in STATES}, "sweep_complete": manifest.get("complete"),
         "report": True})
-    print(f"{out}: {done} of {len(rows)} points: " +
-          ", ".join(f"{states.count(s)} {s}" for s in STATES if states.count(s)))
+    if not quiet:
+        print(f"{out}: {done} of {len(rows)} points: " +
+              ", ".join(f"{states.count(s)} {s}" for s in STATES if states.count(s)))
     return 0
 
 
@@ -221,9 +223,11 @@ def run(args):
             record = adopt_run(args.out, summary, nw_values=args.nw, nc_values=args.nc)
             print(f"adopted {summary} as {record['key']}", file=sys.stderr)
         t = time.perf_counter()
+        # the figures so far, redrawn into DIR/report/ as each point finishes
         rows, sweep = phase_sweep(args.nw, args.nc, args.out, model=args.model,
                                   options=options, resume=args.resume, workers=args.workers,
-                                  scheduler=args.scheduler, progress=not args.quiet)
+                                  scheduler=args.scheduler, progress=not args.quiet,
+                                  on_point=lambda record: report(args, quiet=True))
         wall = time.perf_counter() - t
         write_phase_csv(rows, run.path / "phase.csv")
         plot_phase_diagram(rows, run.path / "phase_diagram.png",

@@ -307,6 +307,9 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     assert load_study().main(["--out", str(tmp_path / "none"), "--report"]) == 2   # no sweep
 
     assert load_study().main(study(out, "--workers", "0", "--resume")[2:]) == 0   # in here
+    # the sweep redraws its report after each point: the last one drawn holds all three
+    drawn = json.loads((out / "report" / "phase.json").read_text())
+    assert drawn["counts"]["not converged"] == 3 and drawn["counts"]["not run"] == 0
     result = json.loads((out / "phase.json").read_text())
     assert result["points_reused"] == finished and result["points_run"] == 3 - finished
     rows = result["rows"]

@@ -123,6 +123,22 @@ def test_resume_skips_done_points_and_reruns_failed_ones(tmp_path):
                   workers=0, progress=False, resume=True)
 
 
+def test_on_point_sees_every_stored_record_and_cannot_stop_the_sweep(tmp_path, capsys):
+    points = grid(w_over_L=[0.2, 1.5])                  # the second fails
+    constants = {"c_over_L": [0.9, 0.8], "scene": SCENE}
+    seen = []
+
+    def on_point(record):
+        seen.append((record["key"], (tmp_path / "points" / f"{record['key']}.json").is_file()))
+        raise RuntimeError("figure broke")
+    result = run_sweep(popup_column, points, tmp_path, constants=constants, workers=0,
+                       progress=False, on_point=on_point)
+    assert [r["status"] for r in result.records] == ["done", "failed"]
+    assert seen == [(point_key(p), True) for p in points]     # on disk before the hook
+    err = capsys.readouterr().err
+    assert err.count("RuntimeError: figure broke") == 2 and point_key(points[0]) in err
+
+
 def test_point_keys_are_readable_stable_and_distinct():
     assert point_key({"nw": 10, "nc": 5}) == "nw=10_nc=5"
     assert point_key({"w_over_L": 0.05}) == "w_over_L=0.05"

@@ -298,16 +298,18 @@ def _normal_protocol(options):
 
 
 def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, resume=False,
-                workers=None, scheduler=None, progress=True):
+                workers=None, scheduler=None, progress=True, on_point=None):
     """Run :func:`curl_point` over every (nw, nc) through
     :func:`knitfem.sweep.run_sweep` (persisted in ``out``, resumable, local
     pool or Dask cluster); returns (rows, the SweepResult).  ``options``: the
-    model's curl options (the sweep's constants)."""
+    model's curl options (the sweep's constants); ``on_point(record)`` as
+    :func:`knitfem.sweep.run_sweep`'s."""
     from ..sweep import grid, run_sweep
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     constants = {"model": model, "curl": _normal_protocol(dict(options or {}))}
     result = run_sweep(curl_point, grid(nw=list(nw_values), nc=list(nc_values)), out,
                        constants=constants, resume=resume, workers=workers,
-                       scheduler=scheduler, progress=progress, desc=f"{model} curls")
+                       scheduler=scheduler, progress=progress, desc=f"{model} curls",
+                       on_point=on_point)
     return phase_rows(result, model), result

@@ -28,6 +28,7 @@ from pathlib import Path
 import inspect
 import shutil
 import socket
+import sys
 import tempfile
 import time
 
@@ -124,7 +125,7 @@ def _plain(v):
 
 
 def run_sweep(task, points, out, *, constants=None, resume=False, workers=None,
-              scheduler=None, progress=True, desc="points", option="--out"):
+              scheduler=None, progress=True, desc="points", option="--out", on_point=None):
     """Run ``task`` over ``points`` (list of dicts), persisting each point in
     ``out`` as it finishes; returns a :class:`SweepResult`.
 
@@ -134,7 +135,10 @@ def run_sweep(task, points, out, *, constants=None, resume=False, workers=None,
         removed first;
     workers : processes of the local pool (default: cores; 0: this process);
     scheduler : address of a Dask scheduler (``tcp://host:port``) instead;
-    progress : a tqdm bar over points (on stderr).
+    progress : a tqdm bar over points (on stderr);
+    on_point : called with each point's stored record as it finishes (in this
+        process, after the record is on disk): e.g. to redraw figures of the
+        points so far.  What it raises is reported on stderr, not fatal.
 
     An interruption (:mod:`knitfem.interrupt`) or any error stops the workers
     and leaves ``sweep.json`` with ``complete: false``; finished points stay.
@@ -143,10 +147,11 @@ def run_sweep(task, points, out, *, constants=None, resume=False, workers=None,
     """
     with unrecorded():
         return _run(task, points, out, constants, resume, workers, scheduler, progress, desc,
-                    option)
+                    option, on_point)
 
 
-def _run(task, points, out, constants, resume, workers, scheduler, progress, desc, option):
+def _run(task, points, out, constants, resume, workers, scheduler, progress, desc, option,
+         on_point=None):
     constants = dict(constants or {})
     points = [{k: _plain(v) for k, v in p.items()} for p in points]
     keys = [point_key(p) for p in points]
@@ -179,6 +184,12 @@ def _run(task, points, out, constants, resume, workers, scheduler, progress, des
                     bar.update()
                     if outcome["status"] != "done":
                         bar.write(f"point {key} failed: {outcome['error']}")
+                if on_point is not None:
+                    try:
+                        on_point(record)
+                    except Exception as err:        # a figure must not stop a sweep
+                        print(f"sweep: after point {key}: {type(err).__name__}: {err}",
+                              file=sys.stderr)
         status = {"complete": all(records.get(k, {}).get("status") == "done" for k in keys)}
         if work is not None and work.is_dir() and not any(work.iterdir()):
             work.rmdir()
