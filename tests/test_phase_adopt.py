@@ -194,3 +194,20 @@ def test_a_sweep_resumes_with_its_budgets_named_at_their_defaults(tmp_path, monk
     rows, sweep = phase_sweep([3], [4], tmp_path, model="beam", workers=0, progress=False,
                               options={"max_rounds": 4, "settle": 0}, resume=True)
     assert sweep.reused == 1
+
+
+def test_an_adopted_point_survives_the_next_run_in_its_folder(tmp_path):
+    """The study adopts inside a run folder, which removes its last run's outputs
+    on entry: an adopted record counted among them was lost to the next run (seen
+    on the team VM, 2026-12-07); it belongs to the sweep's store."""
+    from knitfem.io.run import RunFolder
+    out = sweep_folder(tmp_path / "sweep", points=({"nw": 5, "nc": 20}, {"nw": 5, "nc": 25}))
+    with RunFolder(out, "studies/fabric_phase.py", {}, outputs=("phase.csv",)):
+        adopt_run(out, finished_run(tmp_path / "run20"))
+    with RunFolder(out, "studies/fabric_phase.py", {}, outputs=("phase.csv",)):
+        adopt_run(out, finished_run(tmp_path / "run25", nc=25))
+    with RunFolder(out, "studies/fabric_phase.py", {}, outputs=("phase.csv",)):
+        pass
+    for key in ("nw=5_nc=20", "nw=5_nc=25"):
+        assert (out / "points" / f"{key}.json").is_file()
+        assert {p.name for p in (out / "points" / key).iterdir()} == {"curl.json", "curl.vtu"}

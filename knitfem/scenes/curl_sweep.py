@@ -157,7 +157,7 @@ def adopt_run(out, summary_path, nw_values=None, nc_values=None, replace=False):
     / ``nc_values`` are given, and the point is not done already (unless
     ``replace``).  Returns the stored record; its ``worker`` names the file."""
     import json
-    from ..io.atomic import finite_or_none
+    from ..io.atomic import finite_or_none, unrecorded
     from ..sweep.store import SweepStore, point_key
     from .fabric import FabricScene
     path = Path(summary_path)
@@ -214,7 +214,10 @@ def adopt_run(out, summary_path, nw_values=None, nc_values=None, replace=False):
               "result": finite_or_none(point_result(nw, nc, "beam", dict(summary, message=""))),
               "error": None, "elapsed_s": summary.get("relax_s", summary.get("elapsed_s")),
               "worker": f"adopted from {path}"}
-    return store.save(record, {"curl.json": path.read_bytes(), "curl.vtu": vtu.read_bytes()})
+    # the sweep's store, not the enclosing run's outputs: a run folder removes
+    # its last run's outputs on entry, which took adopted records with it
+    with unrecorded():
+        return store.save(record, {"curl.json": path.read_bytes(), "curl.vtu": vtu.read_bytes()})
 
 
 def _sweep_manifest(store, out):
