@@ -153,18 +153,29 @@ def curl_options(args):
 
 def projection(args):
     """A line on how long the grid may take (B-spline: each point at most
-    --max-time plus its overhead; beam: ``knitfem curl``'s estimate)."""
-    n = len(args.nw) * len(args.nc)
+    --max-time plus its overhead; beam: ``knitfem curl``'s estimate); with
+    --resume, the points the folder holds done are left out."""
+    from knitfem.sweep import SweepStore, point_key
+    points = [(nw, nc) for nw in args.nw for nc in args.nc]
+    done = 0
+    if args.resume:
+        store = SweepStore(args.out)
+        held = [store.load(point_key({"nw": nw, "nc": nc})) for nw, nc in points]
+        left = [p for p, r in zip(points, held) if not (r and r.get("status") == "done")]
+        done, points = len(points) - len(left), left
+    head = f"{len(points) + done} points" + (f" ({done} done)" if done else "")
+    if not points:
+        return f"{head}: nothing left to relax"
     if args.model == "bspline":
-        per_point = [args.max_time + OVERHEAD_S] * n
+        per_point = [args.max_time + OVERHEAD_S] * len(points)
     else:
-        per_point = [curl_command.seconds(replace_counts(args, nw, nc))
-                     for nw in args.nw for nc in args.nc]
+        per_point = [curl_command.seconds(replace_counts(args, nw, nc)) for nw, nc in points]
     if args.scheduler:
-        return f"{n} points, about {sum(per_point) / 3600:.3g} worker-hours at most"
+        return f"{head}, about {sum(per_point) / 3600:.3g} worker-hours at most for the rest"
     workers = max(1, args.workers if args.workers is not None else (os.cpu_count() or 1))
     hours = max(sum(per_point) / workers, max(per_point)) / 3600
-    return f"{n} points, at most about {hours:.3g} h on {workers} worker(s)"
+    rest = " for the rest" if done else ""
+    return f"{head}, at most about {hours:.3g} h on {workers} worker(s){rest}"
 
 
 def replace_counts(args, nw, nc):

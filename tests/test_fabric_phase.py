@@ -305,6 +305,10 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     assert (out / "sweep.json").read_text() == manifest and len(records(out)) == finished
     assert not (out / "phase.csv").exists()
     assert load_study().main(["--out", str(tmp_path / "none"), "--report"]) == 2   # no sweep
+    # a resume projects the time of the points left only
+    module = load_study()
+    line = module.projection(module.parse(study(out, "--workers", "0", "--resume")[2:]))
+    assert line.startswith(f"3 points ({finished} done), at most about") and "the rest" in line
 
     assert load_study().main(study(out, "--workers", "0", "--resume")[2:]) == 0   # in here
     # the sweep redraws its report after each point: the last one drawn holds all three
