@@ -136,6 +136,9 @@ def parse(argv):
                         help="relax nothing: draw the points the --out sweep folder holds so "
                              "far into DIR/report/ (may run beside the sweep)")
     args = parse_study("fabric_phase", parser, OPTIONS, argv)
+    given = sys.argv[1:] if argv is None else argv
+    # --report adds a grid asked for by name to the sweep's own (the defaults add nothing)
+    args.grid_given = any(str(a).split("=")[0] in ("--nw", "--nc") for a in given)
     if args.report and (args.resume or args.adopt):
         parser.exit(2, "fabric_phase: error: --report reads the folder as it is; it takes no "
                        "--resume or --adopt\n")
@@ -183,41 +186,67 @@ def replace_counts(args, nw, nc):
 
 
 def report(args, quiet=False):
-    """Draw what the sweep folder ``args.out`` holds (module docstring); exit 0."""
+    """Draw what the sweep folder ``args.out`` holds (module docstring); exit 0.
+    The points: the sweep's grid (sweep.json), every point stored in the folder
+    and, where --nw / --nc were given, that grid too."""
+    import json
+    from pathlib import Path
     from knitfem.scenes.curl_sweep import curl_point
     from knitfem.sweep import SweepStore, point_key, task_name
-    store = SweepStore(args.out)
-    manifest = store.manifest()
+    manifest_path = Path(args.out) / "sweep.json"
+    try:                        # read before touching the folder: a mistyped --out stays absent
+        manifest = json.loads(manifest_path.read_text())
+    except (OSError, ValueError):
+        manifest = None
     if manifest is None or manifest.get("task") != task_name(curl_point):
         raise ValueError(f"--report: {args.out} holds no curl sweep (no sweep.json of "
                          f"{task_name(curl_point)})")
+    store = SweepStore(args.out)
     model = manifest["constants"]["model"]
     scene = manifest["constants"].get("curl", {})
+    stored = {}
+    for path in sorted(store.points_dir.glob("[!.]*.json")):
+        record = store.load(path.stem)
+        if record is not None and record.get("key") == path.stem:
+            stored[path.stem] = record
+    points = [p["params"] for p in manifest.get("points", [])]
+    points += [r["params"] for r in stored.values()]
+    if getattr(args, "grid_given", True):
+        points += grid(nw=args.nw, nc=args.nc)
+    points = sorted({point_key(p): p for p in points}.values(), key=lambda p: (p["nw"], p["nc"]))
 
     class Held:                                 # the rows' source, as a SweepResult
-        points = grid(nw=args.nw, nc=args.nc)
-        records = []
-    for point in Held.points:
-        record = store.load(point_key(point))
-        Held.records.append(record if record is not None and record.get("params") == point
-                            else None)
+        records = [stored.get(point_key(p)) for p in points]
+    Held.points = points
     rows = phase_rows(Held, model)
     out = store.out / "report"
     write_phase_csv(rows, out / "phase.csv")
-    done = sum(r is not None for r in Held.records)
-    title = f"{model} curl phase diagram so far ({done} of {len(rows)} points)"
+    states = [point_state(r) for r in rows]
+    done = len(rows) - states.count("not run")
+    title = f"{model} curl phase diagram so far ({done} of {len(rows)} points stored)"
     plot_phase_diagram(rows, out / "phase_diagram.png", title=title)
     plot_phase_trends(rows, out / "phase_trends.png",
                       knitted_aspect=scene.get("w", args.w) / scene.get("c", args.c))
-    states = [point_state(r) for r in rows]
     write_json(out / "phase.json", {
-        "model": model, "nw": args.nw, "nc": args.nc, "curl_options": scene, "rows": rows,
+        "model": model, "points": points, "curl_options": scene, "rows": rows,
         "counts": {s: states.count(s) for s in STATES}, "sweep_complete": manifest.get("complete"),
         "report": True})
     if not quiet:
-        print(f"{out}: {done} of {len(rows)} points: " +
+        print(f"{out}: {done} of {len(rows)} points stored: " +
               ", ".join(f"{states.count(s)} {s}" for s in STATES if states.count(s)))
     return 0
+
+
+def redraw(args):
+    """The report of the points so far, from inside a run: the sweep's files,
+    not the run's outputs (a run folder removes those on its next entry); a
+    figure that fails is said on stderr and never stops the study."""
+    from knitfem.io.atomic import unrecorded
+    try:
+        with unrecorded():
+            report(args, quiet=True)
+    except Exception as err:
+        print(f"fabric_phase: report not redrawn: {type(err).__name__}: {err}", file=sys.stderr)
 
 
 def run(args):
@@ -233,6 +262,8 @@ def run(args):
         for summary in args.adopt or ():
             record = adopt_run(args.out, summary, nw_values=args.nw, nc_values=args.nc)
             print(f"adopted {summary} as {record['key']}", file=sys.stderr)
+        if args.adopt:
+            redraw(args)
         t = time.perf_counter()
         # the figures so far, redrawn into DIR/report/ as each point finishes
         rows, sweep = phase_sweep(args.nw, args.nc, args.out, model=args.model,
@@ -240,6 +271,7 @@ def run(args):
                                   scheduler=args.scheduler, progress=not args.quiet,
                                   on_point=lambda record: report(args, quiet=True))
         wall = time.perf_counter() - t
+        redraw(args)            # points reused or adopted, when none was relaxed
         write_phase_csv(rows, run.path / "phase.csv")
         plot_phase_diagram(rows, run.path / "phase_diagram.png",
                            title=f"{args.model} curl phase diagram")

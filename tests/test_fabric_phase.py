@@ -304,7 +304,12 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     assert (out / "report" / "phase_diagram.png").stat().st_size > 0
     assert (out / "sweep.json").read_text() == manifest and len(records(out)) == finished
     assert not (out / "phase.csv").exists()
+    # without --nw / --nc: the sweep's own grid and what it stored, not the default 8 x 7
+    assert load_study().main(["--out", str(out), "--report"]) == 0
+    held = json.loads((out / "report" / "phase.json").read_text())
+    assert [(p["nw"], p["nc"]) for p in held["points"]] == [(3, 4), (4, 4), (5, 4)]
     assert load_study().main(["--out", str(tmp_path / "none"), "--report"]) == 2   # no sweep
+    assert not (tmp_path / "none").exists()                     # and no folder made for it
     # a resume projects the time of the points left only
     module = load_study()
     line = module.projection(module.parse(study(out, "--workers", "0", "--resume")[2:]))

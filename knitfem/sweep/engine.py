@@ -188,8 +188,11 @@ def _run(task, points, out, constants, resume, workers, scheduler, progress, des
                     try:
                         on_point(record)
                     except Exception as err:        # a figure must not stop a sweep
-                        print(f"sweep: after point {key}: {type(err).__name__}: {err}",
-                              file=sys.stderr)
+                        note = f"sweep: after point {key}: {type(err).__name__}: {err}"
+                        if bar is not None:
+                            bar.write(note, file=sys.stderr)
+                        else:
+                            print(note, file=sys.stderr)
         status = {"complete": all(records.get(k, {}).get("status") == "done" for k in keys)}
         if work is not None and work.is_dir() and not any(work.iterdir()):
             work.rmdir()
