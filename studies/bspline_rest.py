@@ -9,7 +9,7 @@ Swatch mode: FIRE (no rest check) to relative residuals 1e-5, 1e-6, 1e-7 and
 1e-9 in turn, each stage going on from the last state (velocities reset);
 for each stopping state the estimate and the largest control-point move to
 the 1e-9 state, in yarn radii, and the edge rolls.  Checkpoint mode: the
-estimate (max and median) and the six lowest eigenvalues at a FIRE
+estimate and the six lowest eigenvalues at a FIRE
 checkpoint of ``knitfem curl --model bspline --out RUN``.  Writes
 ``DIR/bspline_rest_<nw>x<nc>.json`` (swatch mode) and prints a table.
 """

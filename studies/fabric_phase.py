@@ -46,8 +46,8 @@ from knitfem.options import Check, Integer, OptionSet, Real, refuse
 from knitfem.scenes import curl_command
 from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS, MODELS, adopt_run, \
     phase_rows, phase_sweep
-from knitfem.scenes.phase_output import STATES, plot_phase_diagram, plot_phase_trends, \
-    point_state, write_phase_csv
+from knitfem.scenes.phase_output import counts_text, plot_phase_diagram, plot_phase_trends, \
+    point_state, state_counts, write_phase_csv
 from knitfem.sweep import add_sweep_options, grid, parse_study, sweep_main
 
 NW = (5, 10, 15, 20, 25, 30, 40, 55)
@@ -221,19 +221,18 @@ def report(args, quiet=False):
     rows = phase_rows(Held, model)
     out = store.out / "report"
     write_phase_csv(rows, out / "phase.csv")
-    states = [point_state(r) for r in rows]
-    done = len(rows) - states.count("not run")
+    counts = state_counts(rows)
+    done = len(rows) - counts["not run"]
     title = f"{model} curl phase diagram so far ({done} of {len(rows)} points stored)"
     plot_phase_diagram(rows, out / "phase_diagram.png", title=title)
     plot_phase_trends(rows, out / "phase_trends.png",
                       knitted_aspect=scene.get("w", args.w) / scene.get("c", args.c))
     write_json(out / "phase.json", {
         "model": model, "points": points, "curl_options": scene, "rows": rows,
-        "counts": {s: states.count(s) for s in STATES}, "sweep_complete": manifest.get("complete"),
+        "counts": counts, "sweep_complete": manifest.get("complete"),
         "report": True})
     if not quiet:
-        print(f"{out}: {done} of {len(rows)} points stored: " +
-              ", ".join(f"{states.count(s)} {s}" for s in STATES if states.count(s)))
+        print(f"{out}: {done} of {len(rows)} points stored: {counts_text(rows)}")
     return 0
 
 
@@ -271,16 +270,17 @@ def run(args):
                                   scheduler=args.scheduler, progress=not args.quiet,
                                   on_point=lambda record: report(args, quiet=True))
         wall = time.perf_counter() - t
-        redraw(args)            # points reused or adopted, when none was relaxed
+        ran = len(rows) - sweep.reused
+        if not ran:             # no point finished here: the hook never redrew
+            redraw(args)
         write_phase_csv(rows, run.path / "phase.csv")
         plot_phase_diagram(rows, run.path / "phase_diagram.png",
                            title=f"{args.model} curl phase diagram")
         plot_phase_trends(rows, run.path / "phase_trends.png", knitted_aspect=args.w / args.c)
         states = [point_state(r) for r in rows]
-        ran = len(rows) - sweep.reused
         write_json(run.path / "phase.json", {
             "model": args.model, "nw": args.nw, "nc": args.nc, "curl_options": options,
-            "rows": rows, "counts": {s: states.count(s) for s in STATES},
+            "rows": rows, "counts": state_counts(rows),
             "wall_s": wall, "points_run": ran, "points_reused": sweep.reused,
             "points_per_hour": 3600.0 * ran / wall if ran and wall > 0 else None,
             "executor": sweep.executor})

@@ -58,6 +58,11 @@ def _lifted_inverse(H, R, beta, shift):
     return solve
 
 
+def _lifted(H, R, beta):
+    """x -> (H + beta R R^T) x: the Hessian with the rigid motions R lifted."""
+    return (lambda x: H @ x) if R is None else (lambda x: H @ x + beta * (R @ (R.T @ x)))
+
+
 def lowest_eigenvalues(model, y, k=6):
     """The k lowest eigenvalues of the reduced Hessian at y, rigid motions of a
     free body excluded (ascending), and the scale max|diag H| they compare with."""
@@ -73,8 +78,8 @@ def lowest_eigenvalues(model, y, k=6):
         return np.linalg.eigvalsh(0.5 * (A + A.T))[:k], scale
     sigma = -1e-6 * scale
     op = splinalg.LinearOperator((n, n), matvec=_lifted_inverse(H, R, beta, sigma), dtype=float)
-    A = H if R is None else splinalg.LinearOperator(
-        (n, n), matvec=lambda x: H @ x + beta * R @ (R.T @ x), dtype=float)
+    A = H if R is None else splinalg.LinearOperator((n, n), matvec=_lifted(H, R, beta),
+                                                    dtype=float)
     vals = splinalg.eigsh(A, k=min(k, n - 2), sigma=sigma, OPinv=op, which="LM",
                           return_eigenvectors=False)
     return np.sort(vals), scale
@@ -101,7 +106,7 @@ def equilibrium_distance(model, y, refine=2):
     scale = float(np.abs(H.diagonal()).max())
     R = rigid_modes(model, y)
     solve = _lifted_inverse(H, R, scale, -1e-12 * scale)
-    lifted = (lambda x: H @ x) if R is None else (lambda x: H @ x + scale * (R @ (R.T @ x)))
+    lifted = _lifted(H, R, scale)
     d = -solve(g)
     for _ in range(refine):
         d += solve(-g - lifted(d))

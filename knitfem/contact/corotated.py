@@ -125,10 +125,7 @@ def corotated_geometric(g3, pieces, s):
     (25 x 35) against 0.03 s: 2-4 % of a step there."""
     R_m, v, m, arm_s, C = pieces
     K = np.zeros((len(g3), 30, 30))
-    _geometric_blocks(np.ascontiguousarray(R_m, dtype=float), np.ascontiguousarray(g3, dtype=float),
-                      np.ascontiguousarray(v, dtype=float), np.ascontiguousarray(m, dtype=float),
-                      np.ascontiguousarray(arm_s, dtype=float),
-                      np.ascontiguousarray(C, dtype=float), np.ascontiguousarray(s, dtype=float),
+    _geometric_blocks(*(np.ascontiguousarray(a, dtype=float) for a in (R_m, g3, v, m, arm_s, C, s)),
                       K)
     return K
 

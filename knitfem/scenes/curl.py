@@ -52,7 +52,7 @@ def increments_of(data, path="checkpoint"):
                          f"are not this code's ({', '.join(INCREMENT_FIELDS)}; at least "
                          f"{', '.join(required)}): a checkpoint of another version")
     kinds = {f.name: f.type for f in fields(Increment)}
-    cast = {"int": int, "bool": bool, int: int, bool: bool}
+    cast = {int: int, bool: bool}
     return [Increment(**{n: cast.get(kinds[n], float)(v) for n, v in zip(names, row)})
             for row in rows]
 

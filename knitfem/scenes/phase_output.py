@@ -93,9 +93,15 @@ def scatter_points(ax, rows, x, y, size=70):
     return drawn
 
 
-def _counts(rows):
+def state_counts(rows):
+    """How many rows are in each of :data:`STATES` (dict)."""
     states = [point_state(r) for r in rows]
-    return ", ".join(f"{states.count(s)} {s}" for s in STATES if states.count(s))
+    return {s: states.count(s) for s in STATES}
+
+
+def counts_text(rows):
+    """"3 converged, 1 failed": the non-zero :func:`state_counts`."""
+    return ", ".join(f"{n} {s}" for s, n in state_counts(rows).items() if n)
 
 
 def phase_diagram(rows, title=None):
@@ -120,7 +126,7 @@ def phase_diagram(rows, title=None):
     ax.set_ylim(0, 1.08 * nc_max + 2)
     ax.set_xlabel("$N_w$ (wales)")
     ax.set_ylabel("$N_c$ (courses)")
-    ax.set_title(title or f"Curl phase diagram ({_counts(rows)})", fontsize=10)
+    ax.set_title(title or f"Curl phase diagram ({counts_text(rows)})", fontsize=10)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)
     fig.tight_layout()
     return fig, ax
@@ -150,7 +156,7 @@ def phase_trends(rows, knitted_aspect=None):
     ax_a.set_ylabel("relaxed loop aspect w/c (central loops)")
     ax_h.set_title("H vs $N_w/N_c$ (Fig. 2a analogue)", fontsize=10)
     ax_a.set_title("loop aspect vs $N_w/N_c$ (Fig. 2b analogue)", fontsize=10)
-    fig.suptitle(f"{_counts(rows)} (failed points have no H or w/c)", fontsize=9)
+    fig.suptitle(f"{counts_text(rows)} (failed points have no H or w/c)", fontsize=9)
     fig.tight_layout()
     return fig, (ax_h, ax_a)
 
