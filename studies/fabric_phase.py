@@ -32,7 +32,8 @@ A running sweep redraws DIR/report/ after every point it finishes, and
 (a grid that takes days is run over several sessions) into DIR/report/ —
 phase.csv, phase.json, phase_diagram.png, phase_trends.png, the points not run
 yet as small grey dots — leaving the sweep's own files alone, so it may run
-beside the sweep itself.  The model and scene are the sweep's (sweep.json).
+beside the sweep itself.  The model and scene are the sweep's (sweep.json):
+``--model`` or curl options that name others are refused (exit 2).
 """
 import argparse
 import dataclasses
@@ -113,6 +114,12 @@ OPTIONS = OptionSet(
 )
 
 
+# the options a sweep relaxes with (its constants): --report draws the folder's,
+# and refuses these when given by name and not the folder's
+SCENE_FLAGS = frozenset([spec.flag for spec in OPTIONS.specs if getattr(spec, "flag", None)]
+                        + ["--paths", "--bindoff-prestretch"])
+
+
 def parse(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     add_sweep_options(parser)
@@ -138,10 +145,13 @@ def parse(argv):
     args = parse_study("fabric_phase", parser, OPTIONS, argv)
     given = sys.argv[1:] if argv is None else argv
     # --report adds a grid asked for by name to the sweep's own (the defaults add nothing)
-    args.grid_given = any(str(a).split("=")[0] in ("--nw", "--nc") for a in given)
+    named = [str(a).split("=")[0] for a in given if str(a).startswith("--")]
+    args.grid_given = any(flag in ("--nw", "--nc") for flag in named)
+    args.model_given = "--model" in named
     if args.report and (args.resume or args.adopt):
         parser.exit(2, "fabric_phase: error: --report reads the folder as it is; it takes no "
                        "--resume or --adopt\n")
+    args.scene_given = any(flag in SCENE_FLAGS for flag in named)
     if args.adopt and not (args.resume and args.model == "beam"):
         parser.exit(2, "fabric_phase: error: --adopt needs --model beam and --resume (without "
                        "--resume the folder's points are removed)\n")
@@ -158,14 +168,19 @@ def projection(args):
     """A line on how long the grid may take (B-spline: each point at most
     --max-time plus its overhead; beam: ``knitfem curl``'s estimate); with
     --resume, the points the folder holds done are left out."""
-    from knitfem.sweep import SweepStore, point_key
-    points = [(nw, nc) for nw in args.nw for nc in args.nc]
+    from knitfem.scenes.curl_sweep import curl_point, sweep_constants
+    from knitfem.sweep import SweepStore, point_key, task_name
+    params = grid(nw=args.nw, nc=args.nc)
     done = 0
     if args.resume:
+        # the sweep's own test first: a folder of another sweep is refused
+        # here, before its records are counted as done
         store = SweepStore(args.out)
-        held = [store.load(point_key({"nw": nw, "nc": nc})) for nw, nc in points]
-        left = [p for p, r in zip(points, held) if not (r and r.get("status") == "done")]
-        done, points = len(points) - len(left), left
+        store.check_same(task_name(curl_point), sweep_constants(args.model, curl_options(args)))
+        finished = store.finished([point_key(p) for p in params], params)
+        params = [p for p in params if point_key(p) not in finished]
+        done = len(finished)
+    points = [(p["nw"], p["nc"]) for p in params]
     head = f"{len(points) + done} points" + (f" ({done} done)" if done else "")
     if not points:
         return f"{head}: nothing left to relax"
@@ -191,7 +206,7 @@ def report(args, quiet=False):
     and, where --nw / --nc were given, that grid too."""
     import json
     from pathlib import Path
-    from knitfem.scenes.curl_sweep import curl_point
+    from knitfem.scenes.curl_sweep import curl_point, sweep_constants
     from knitfem.sweep import SweepStore, point_key, task_name
     manifest_path = Path(args.out) / "sweep.json"
     try:                        # read before touching the folder: a mistyped --out stays absent
@@ -203,6 +218,18 @@ def report(args, quiet=False):
                          f"{task_name(curl_point)})")
     store = SweepStore(args.out)
     model = manifest["constants"]["model"]
+    # the folder's model and scene are drawn: options that name others are refused
+    # (compared as a --resume compares them), never silently ignored
+    if getattr(args, "scene_given", False):
+        named = sweep_constants(args.model, curl_options(args))
+        if json.dumps(named, sort_keys=True) != json.dumps(manifest["constants"], sort_keys=True):
+            raise ValueError(f"--report: {args.out} holds a sweep with constants "
+                             f"{json.dumps(manifest['constants'])}, not "
+                             f"{json.dumps(named)} (leave the curl options out: the "
+                             "folder's scene is drawn)")
+    elif getattr(args, "model_given", False) and args.model != model:
+        raise ValueError(f"--report: {args.out} holds a {model} sweep, not --model "
+                         f"{args.model} (leave --model out: the folder's model is drawn)")
     scene = manifest["constants"].get("curl", {})
     stored = {}
     for path in sorted(store.points_dir.glob("[!.]*.json")):

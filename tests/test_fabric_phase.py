@@ -278,7 +278,7 @@ def study(out, *extra):
             "--max-time", str(STEPS["max_time"]), "--quiet", *extra]
 
 
-def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool_rows):
+def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool_rows, capsys):
     out = tmp_path / "phase"
     env = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
     proc = subprocess.Popen(study(out, "--workers", "0"), stdout=subprocess.PIPE,
@@ -310,10 +310,19 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     assert [(p["nw"], p["nc"]) for p in held["points"]] == [(3, 4), (4, 4), (5, 4)]
     assert load_study().main(["--out", str(tmp_path / "none"), "--report"]) == 2   # no sweep
     assert not (tmp_path / "none").exists()                     # and no folder made for it
+    # the folder's model and scene are drawn: a --model or curl option naming others is refused
+    assert load_study().main(["--out", str(out), "--report", "--model", "beam"]) == 2
+    assert load_study().main(study(out, "--report", "--alpha", "0.1")[2:]) == 2
+    assert "not {" in capsys.readouterr().err
+    assert (out / "sweep.json").read_text() == manifest and len(records(out)) == finished
     # a resume projects the time of the points left only
     module = load_study()
     line = module.projection(module.parse(study(out, "--workers", "0", "--resume")[2:]))
     assert line.startswith(f"3 points ({finished} done), at most about") and "the rest" in line
+    # ... of this sweep: another sweep's records are not counted, its folder is refused
+    with pytest.raises(ValueError, match="holds a sweep of .* with constants"):
+        module.projection(module.parse(study(out, "--workers", "0", "--resume",
+                                             "--alpha", "0.1")[2:]))
 
     assert load_study().main(study(out, "--workers", "0", "--resume")[2:]) == 0   # in here
     # the sweep redraws its report after each point: the last one drawn holds all three

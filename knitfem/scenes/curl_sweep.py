@@ -300,6 +300,12 @@ def _normal_protocol(options):
     return {**options, **protocol}
 
 
+def sweep_constants(model, options):
+    """The constants a phase sweep of ``model`` with the curl ``options``
+    stores (and compares on a resume)."""
+    return {"model": model, "curl": _normal_protocol(dict(options or {}))}
+
+
 def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, resume=False,
                 workers=None, scheduler=None, progress=True, on_point=None):
     """Run :func:`curl_point` over every (nw, nc) through
@@ -310,7 +316,7 @@ def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, res
     from ..sweep import grid, run_sweep
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
-    constants = {"model": model, "curl": _normal_protocol(dict(options or {}))}
+    constants = sweep_constants(model, options)
     result = run_sweep(curl_point, grid(nw=list(nw_values), nc=list(nc_values)), out,
                        constants=constants, resume=resume, workers=workers,
                        scheduler=scheduler, progress=progress, desc=f"{model} curls",

@@ -80,15 +80,8 @@ class SweepStore:
                                   "overwrite it")
         done = {}
         if resume and old is not None:
-            if old.get("task") != task or not _same(old.get("constants"), constants):
-                raise OutputError(
-                    f"--resume: {self.out} holds a sweep of {old.get('task')} with constants "
-                    f"{json.dumps(old.get('constants'))}, not of {task} with "
-                    f"{json.dumps(constants)}; choose another {self.option}")
-            for key, point in zip(keys, points):
-                record = self.load(key)
-                if record and record.get("status") == "done" and _same(record["params"], point):
-                    done[key] = record
+            self.check_same(task, constants)
+            done = self.finished(keys, points)
         elif self.points_dir.exists():
             shutil.rmtree(self.points_dir)
         # a fresh sweep starts every point afresh; a resumed one needs no
@@ -103,6 +96,26 @@ class SweepStore:
                        else [], "points": [{"key": k, "params": p} for k, p in zip(keys, points)],
                        "pid": os.getpid(), "host": socket.gethostname()}
         write_json(self.out / MANIFEST, {**self.header, "complete": False})
+        return done
+
+    def check_same(self, task, constants):
+        """Refuse (:class:`OutputError`) to resume ``task`` with ``constants``
+        where the folder holds another sweep (none held: nothing to refuse)."""
+        old = self.manifest()
+        if old is not None and (old.get("task") != task
+                                or not _same(old.get("constants"), constants)):
+            raise OutputError(
+                f"--resume: {self.out} holds a sweep of {old.get('task')} with constants "
+                f"{json.dumps(old.get('constants'))}, not of {task} with "
+                f"{json.dumps(constants)}; choose another {self.option}")
+
+    def finished(self, keys, points):
+        """key -> record of the points stored done with exactly these params."""
+        done = {}
+        for key, point in zip(keys, points):
+            record = self.load(key)
+            if record and record.get("status") == "done" and _same(record["params"], point):
+                done[key] = record
         return done
 
     def load(self, key):
