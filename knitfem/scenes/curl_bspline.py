@@ -224,16 +224,15 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     constants = YarnConstants() if constants is None else constants
     t0 = time.perf_counter()
-    bs = bspline_swatch(nw, nc, w=w, c=c, radius=radius, segments_per_loop=segments_per_loop,
-                        constants=constants, bindoff_stiffness=bindoff_stiffness)
-    prestretch(bs, alpha)
+    # the swatch is built from the scene a checkpoint keeps: one recipe for both
+    scene = {"nw": nw, "nc": nc, "alpha": alpha, "w": float(w), "c": float(c),
+             "radius": float(radius), "segments_per_loop": int(segments_per_loop),
+             "bindoff_stiffness": float(bindoff_stiffness), "method": method,
+             "rtol": float(rtol), "constants": asdict(constants)}
+    bs = swatch_of(scene)
     monitor = Trace(bs) if trace else None
     name = name or f"bspline_{nw}x{nc}"
-    run = _Checkpoints(out if checkpoint else None, name, method, resume, {
-        "nw": nw, "nc": nc, "alpha": alpha, "w": float(w), "c": float(c),
-        "radius": float(radius), "segments_per_loop": int(segments_per_loop),
-        "bindoff_stiffness": float(bindoff_stiffness), "method": method, "rtol": float(rtol),
-        "constants": asdict(constants)})
+    run = _Checkpoints(out if checkpoint else None, name, method, resume, scene)
     y, info = relax_swatch(bs, method=method, rtol=rtol, max_time=max_time,
                            max_steps=max_steps, newton=newton, progress=progress,
                            monitor=monitor, state=run.state, checkpoint=run.save_or_none,
