@@ -46,7 +46,7 @@ from knitfem.io.run import RunFolder
 from knitfem.options import Check, Integer, OptionSet, Real, refuse
 from knitfem.scenes import curl_command
 from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS, MODELS, adopt_run, \
-    phase_rows, phase_sweep
+    phase_rows, phase_sweep, swatch_size
 from knitfem.scenes.phase_output import counts_text, plot_phase_diagram, plot_phase_trends, \
     point_state, state_counts, write_phase_csv
 from knitfem.sweep import add_sweep_options, grid, parse_study, sweep_main
@@ -139,6 +139,10 @@ def parse(argv):
                         help="beam, with --resume: store these finished `knitfem curl` runs "
                              "(summary JSON, .vtu beside it) as their grid points first, "
                              "each checked to have the sweep's scene")
+    parser.add_argument("--order", choices=("size", "grid"), default="size",
+                        help="size: the points left start smallest swatch (N_w N_c) first, "
+                             "so a grid of days shows most of its diagram early (default); "
+                             "grid: in the grid's order (the results are the same)")
     parser.add_argument("--report", action="store_true",
                         help="relax nothing: draw the points the --out sweep folder holds so "
                              "far into DIR/report/ (may run beside the sweep)")
@@ -295,7 +299,8 @@ def run(args):
         rows, sweep = phase_sweep(args.nw, args.nc, args.out, model=args.model,
                                   options=options, resume=args.resume, workers=args.workers,
                                   scheduler=args.scheduler, progress=not args.quiet,
-                                  on_point=lambda record: report(args, quiet=True))
+                                  on_point=lambda record: report(args, quiet=True),
+                                  first=swatch_size if args.order == "size" else None)
         wall = time.perf_counter() - t
         ran = len(rows) - sweep.reused
         if not ran:             # no point finished here: the hook never redrew

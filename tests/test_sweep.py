@@ -144,3 +144,28 @@ def test_point_keys_are_readable_stable_and_distinct():
     assert point_key({"w_over_L": 0.05}) == "w_over_L=0.05"
     assert point_key({"a": "x/y"}) != point_key({"a": "x-y"})
     assert len(point_key({"a": "b" * 500})) < 100
+
+
+def _started(params, out_dir):
+    """A task that says when it ran (a counter that only grows)."""
+    return {"ns": time.perf_counter_ns()}
+
+
+def test_first_orders_the_points_left_but_not_the_results(tmp_path):
+    points = grid(nw=[30, 5, 10, 20], nc=[20, 5])          # 5 x 20 and 20 x 5 tie
+    seen = []
+    result = run_sweep(_started, points, tmp_path, workers=0, progress=False,
+                       first=lambda p: p["nw"] * p["nc"],
+                       on_point=lambda record: seen.append(tuple(record["params"].values())))
+    sizes = [nw * nc for nw, nc in seen]
+    assert sizes == sorted(sizes) and seen[:4] == [(5, 5), (10, 5), (5, 20), (20, 5)]
+    assert [r["params"] for r in result.records] == points                # results: grid order
+    ran = [r["result"]["ns"] for r in result.records]
+    assert [points[i] for i in np.argsort(ran)] == [dict(nw=a, nc=b) for a, b in seen]
+    manifest = json.loads((tmp_path / "sweep.json").read_text())
+    assert [p["params"] for p in manifest["points"]] == points
+    # without it, the given order
+    seen.clear()
+    run_sweep(_started, points, tmp_path / "plain", workers=0, progress=False,
+              on_point=lambda record: seen.append(tuple(record["params"].values())))
+    assert seen == [tuple(p.values()) for p in points]

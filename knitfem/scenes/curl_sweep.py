@@ -306,13 +306,19 @@ def sweep_constants(model, options):
     return {"model": model, "curl": _normal_protocol(dict(options or {}))}
 
 
+def swatch_size(point):
+    """Loops in a point's swatch, N_w N_c: what a relaxation's cost grows with."""
+    return point["nw"] * point["nc"]
+
+
 def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, resume=False,
-                workers=None, scheduler=None, progress=True, on_point=None):
+                workers=None, scheduler=None, progress=True, on_point=None, first=swatch_size):
     """Run :func:`curl_point` over every (nw, nc) through
     :func:`knitfem.sweep.run_sweep` (persisted in ``out``, resumable, local
     pool or Dask cluster); returns (rows, the SweepResult).  ``options``: the
-    model's curl options (the sweep's constants); ``on_point(record)`` as
-    :func:`knitfem.sweep.run_sweep`'s."""
+    model's curl options (the sweep's constants); ``on_point(record)`` and
+    ``first`` (default: the smallest swatches first; None: the grid's order)
+    as :func:`knitfem.sweep.run_sweep`'s."""
     from ..sweep import grid, run_sweep
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
@@ -320,5 +326,5 @@ def phase_sweep(nw_values, nc_values, out, *, model="bspline", options=None, res
     result = run_sweep(curl_point, grid(nw=list(nw_values), nc=list(nc_values)), out,
                        constants=constants, resume=resume, workers=workers,
                        scheduler=scheduler, progress=progress, desc=f"{model} curls",
-                       on_point=on_point)
+                       on_point=on_point, first=first)
     return phase_rows(result, model), result

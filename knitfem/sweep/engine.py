@@ -125,7 +125,8 @@ def _plain(v):
 
 
 def run_sweep(task, points, out, *, constants=None, resume=False, workers=None,
-              scheduler=None, progress=True, desc="points", option="--out", on_point=None):
+              scheduler=None, progress=True, desc="points", option="--out", on_point=None,
+              first=None):
     """Run ``task`` over ``points`` (list of dicts), persisting each point in
     ``out`` as it finishes; returns a :class:`SweepResult`.
 
@@ -139,6 +140,10 @@ def run_sweep(task, points, out, *, constants=None, resume=False, workers=None,
     on_point : called with each point's stored record as it finishes (in this
         process, after the record is on disk): e.g. to redraw figures of the
         points so far.  What it raises is reported on stderr, not fatal.
+    first : key(point) -> sortable: the points left are started in its order
+        (ties in the given order), e.g. the smallest first so that a sweep of
+        days shows most of its points early; the records, the manifest and
+        the results keep the order of ``points``.
 
     An interruption (:mod:`knitfem.interrupt`) or any error stops the workers
     and leaves ``sweep.json`` with ``complete: false``; finished points stay.
@@ -147,11 +152,11 @@ def run_sweep(task, points, out, *, constants=None, resume=False, workers=None,
     """
     with unrecorded():
         return _run(task, points, out, constants, resume, workers, scheduler, progress, desc,
-                    option, on_point)
+                    option, on_point, first)
 
 
 def _run(task, points, out, constants, resume, workers, scheduler, progress, desc, option,
-         on_point=None):
+         on_point=None, first=None):
     constants = dict(constants or {})
     points = [{k: _plain(v) for k, v in p.items()} for p in points]
     keys = [point_key(p) for p in points]
@@ -161,6 +166,8 @@ def _run(task, points, out, constants, resume, workers, scheduler, progress, des
     done = store.open(task_name(task), constants, points, keys, resume)
     records = {k: done[k] for k in keys if k in done}
     todo = [(k, p) for k, p in zip(keys, points) if k not in done]
+    if first is not None:
+        todo.sort(key=lambda item: first(item[1]))         # stable: ties keep their order
     bar = None
     if progress:
         from tqdm import tqdm
