@@ -243,6 +243,14 @@ def test_not_converged_points_are_hollow_and_failed_ones_crosses():
     drawn = {c.get_label(): c for c in ax_h.collections}
     assert "failed" not in drawn                                    # no H for a failed point
     assert drawn["side (not converged)"].get_offsets().tolist() == [[10 / 35, 0.1 * 10 / 35]]
+    assert not [line for line in ax_h.lines if "Fig. 2 row" in line.get_label()]  # no N_c = 20
+    plt.close(fig)
+    fig, (ax_h, ax_a) = phase_trends(rows, row_nc=10)       # the row's finished points, joined
+    for ax, value in ((ax_h, lambda q: 0.1 * q), (ax_a, lambda q: 1.3 + 0.01 * q)):
+        row = [line for line in ax.lines if "Fig. 2 row" in line.get_label()]
+        assert len(row) == 1 and row[0].get_label().startswith("$N_c$ = 10")
+        x, y = row[0].get_data()
+        assert list(x) == [0.5, 2.5, 5.5] and np.allclose(y, [value(q) for q in x])
     plt.close(fig)
     # a grid under way: the points it has not reached are dots, not failures
     pending = dict(rows[0], nw=30, nc=5, status="not run", curl=None, height=None)

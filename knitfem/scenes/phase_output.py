@@ -21,6 +21,7 @@ COLOURS = {"side": "tab:blue", "double": "tab:purple", "top_bottom": "tab:red",
            "flat": "tab:green"}
 NOT_CONVERGED = "0.45"            # grey edge of a hollow marker
 BOUNDARY = 2.0                    # experimental N_w / N_c between side and other curls
+PAPER_ROW = 20                    # the N_c of the paper's Fig. 2 (H and w/c against N_w/N_c)
 
 
 def _plt():
@@ -138,20 +139,38 @@ def plot_phase_diagram(rows, path, title=None):
     return save_figure(fig, path)
 
 
-def phase_trends(rows, knitted_aspect=None):
-    """H and loop aspect w/c against N_w/N_c (fig, (ax_H, ax_aspect))."""
+def _row_line(ax, rows, value, nc):
+    """The finished points of the course count ``nc`` joined in N_w/N_c order
+    (the paper measured its trends along one such row)."""
+    held = sorted((r["nw"] / r["nc"], value(r)) for r in rows
+                  if r["nc"] == nc and r.get("status") == "done" and value(r) is not None
+                  and np.isfinite(value(r)))
+    if len(held) >= 2:
+        x, y = zip(*held)
+        ax.plot(x, y, color="0.35", lw=1.0, zorder=0,
+                label=f"$N_c$ = {nc} (the paper's Fig. 2 row)")
+
+
+def phase_trends(rows, knitted_aspect=None, row_nc=PAPER_ROW):
+    """H and loop aspect w/c against N_w/N_c (fig, (ax_H, ax_aspect)); the
+    points of the course count ``row_nc`` (the paper's 20) joined by a line."""
     plt = _plt()
-    fig, (ax_h, ax_a) = plt.subplots(1, 2, figsize=(11.0, 4.6))
+    fig, (ax_h, ax_a) = plt.subplots(1, 2, figsize=(11.0, 5.2))
     ratio = lambda r: r["nw"] / r["nc"]                                  # noqa: E731
-    scatter_points(ax_h, rows, ratio, lambda r: r.get("height"))
-    scatter_points(ax_a, rows, ratio, lambda r: r.get("loop_aspect"))
+    height, aspect = (lambda r: r.get("height")), (lambda r: r.get("loop_aspect"))
+    scatter_points(ax_h, rows, ratio, height)
+    scatter_points(ax_a, rows, ratio, aspect)
+    _row_line(ax_h, rows, height, row_nc)
+    _row_line(ax_a, rows, aspect, row_nc)
     if knitted_aspect is not None:
         ax_a.axhline(knitted_aspect, color="0.3", lw=0.8, ls=":", label="knitted w/c")
     for ax in (ax_h, ax_a):
         ax.axvline(BOUNDARY, color="k", ls="--", lw=0.8,
                    label=f"experiment: boundary {BOUNDARY:g}")
         ax.set_xlabel("$N_w / N_c$")
-        ax.legend(fontsize=7)
+        # under the panel: inside, it hid points of a grid that fills in over days
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3,
+                  frameon=False)
     ax_h.set_ylabel("centre height H (mm, swatch laid knit face down)")
     ax_a.set_ylabel("relaxed loop aspect w/c (central loops)")
     ax_h.set_title("H vs $N_w/N_c$ (Fig. 2a analogue)", fontsize=10)
