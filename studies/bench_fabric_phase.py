@@ -37,10 +37,10 @@ def sweep(nw, nc, options, executor, cluster):
     with tempfile.TemporaryDirectory(prefix="knitfem-bench-phase-") as out:
         t = time.perf_counter()
         if executor == "pool":
-            rows, result = phase_sweep(nw, nc, out, options=options, workers=2,
+            rows, result = phase_sweep(nw, nc, out, first=None, options=options, workers=2,
                                        progress=False)
         else:
-            rows, result = phase_sweep(nw, nc, out, options=options,
+            rows, result = phase_sweep(nw, nc, out, first=None, options=options,
                                        scheduler=cluster.scheduler_address, progress=False)
         wall = time.perf_counter() - t
     assert result.complete, [r["error"] for r in result.failed]

@@ -121,7 +121,8 @@ SCENE_FLAGS = frozenset([spec.flag for spec in OPTIONS.specs if getattr(spec, "f
 
 
 def parse(argv):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    # no abbreviations: --report must see every option given by name (--alp is not --alpha)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0], allow_abbrev=False)
     add_sweep_options(parser)
     parser.add_argument("--nw", default=",".join(map(str, NW)),
                         help=f"wale counts N_w (default {','.join(map(str, NW))})")
@@ -141,8 +142,10 @@ def parse(argv):
                              "each checked to have the sweep's scene")
     parser.add_argument("--order", choices=("size", "grid"), default="size",
                         help="size: the points left start smallest swatch (N_w N_c) first, "
-                             "so a grid of days shows most of its diagram early (default); "
-                             "grid: in the grid's order (the results are the same)")
+                             "so a grid of days shows most of its diagram early (default; on a "
+                             "pool that runs the whole grid at once the largest points come "
+                             "last, which may leave a worker idle at the end); grid: in the "
+                             "grid's order (the results are the same either way)")
     parser.add_argument("--report", action="store_true",
                         help="relax nothing: draw the points the --out sweep folder holds so "
                              "far into DIR/report/ (may run beside the sweep)")
@@ -155,7 +158,9 @@ def parse(argv):
     if args.report and (args.resume or args.adopt):
         parser.exit(2, "fabric_phase: error: --report reads the folder as it is; it takes no "
                        "--resume or --adopt\n")
-    args.scene_given = any(flag in SCENE_FLAGS for flag in named)
+    # curl options given by name (--report compares these, and only these, with the folder's)
+    keys = [flag[2:].replace("-", "_") for flag in dict.fromkeys(named) if flag in SCENE_FLAGS]
+    args.scene_named = {k: parser.get_default(k) for k in keys}
     if args.adopt and not (args.resume and args.model == "beam"):
         parser.exit(2, "fabric_phase: error: --adopt needs --model beam and --resume (without "
                        "--resume the folder's points are removed)\n")
@@ -222,19 +227,16 @@ def report(args, quiet=False):
                          f"{task_name(curl_point)})")
     store = SweepStore(args.out)
     model = manifest["constants"]["model"]
-    # the folder's model and scene are drawn: options that name others are refused
-    # (compared as a --resume compares them), never silently ignored
-    if getattr(args, "scene_given", False):
-        named = sweep_constants(args.model, curl_options(args))
-        if json.dumps(named, sort_keys=True) != json.dumps(manifest["constants"], sort_keys=True):
-            raise ValueError(f"--report: {args.out} holds a sweep with constants "
-                             f"{json.dumps(manifest['constants'])}, not "
-                             f"{json.dumps(named)} (leave the curl options out: the "
-                             "folder's scene is drawn)")
-    elif getattr(args, "model_given", False) and args.model != model:
+    # the folder's model and scene are drawn: a --model or curl option given by
+    # name that is not the folder's is refused, never silently ignored
+    if getattr(args, "model_given", False) and args.model != model:
         raise ValueError(f"--report: {args.out} holds a {model} sweep, not --model "
                          f"{args.model} (leave --model out: the folder's model is drawn)")
     scene = manifest["constants"].get("curl", {})
+    differ = _named_not_held(args, model, scene)
+    if differ:
+        raise ValueError(f"--report: {args.out} holds a sweep with other curl options "
+                         f"({'; '.join(differ)}); leave them out: the folder's are drawn")
     stored = {}
     for path in sorted(store.points_dir.glob("[!.]*.json")):
         record = store.load(path.stem)
@@ -265,6 +267,26 @@ def report(args, quiet=False):
     if not quiet:
         print(f"{out}: {done} of {len(rows)} points stored: {counts_text(rows)}")
     return 0
+
+
+def _named_not_held(args, model, held):
+    """The curl options given by name whose value is not the folder's
+    (``held``: its stored curl options, where a relaxation option at its
+    default is left out, as a resume leaves it out, and an option it lacks
+    was at its default), as "--flag: given X, folder Y"."""
+    from knitfem.scenes.curl_sweep import sweep_constants
+    named = getattr(args, "scene_named", {})
+    given = {k: getattr(args, k) for k in named if getattr(args, k, None) is not None}
+    normal = sweep_constants(model, given)["curl"]
+    differ = []
+    for key, default in named.items():
+        mine, theirs = normal.get(key), held.get(key)
+        if theirs is None and mine is not None and mine == default:
+            theirs = default                    # a folder from before the option: its default
+        if mine != theirs:
+            differ.append(f"--{key.replace('_', '-')}: given {getattr(args, key)!r}, "
+                          f"folder {held.get(key, 'its default')!r}")
+    return differ
 
 
 def redraw(args):

@@ -118,6 +118,7 @@ def test_bspline_curl_returns_the_issue_9_keys_and_says_when_it_has_not_converge
     (dict(nw=4, nc=4, alpha=1.2), r"alpha must be in \[0, 1\)"),
     (dict(nw=4, nc=4, method="newton"), r"method must be one of"),
     (dict(nw=4, nc=4, radius=0.6), r"radius must be < w/8"),
+    (dict(nw=3, nc=4, segments_per_loop=8.5), r"segments_per_loop must be an integer >= 8"),
 ])
 def test_bad_curl_input_names_the_parameter(kwargs, match):
     nw, nc = kwargs.pop("nw"), kwargs.pop("nc")

@@ -321,7 +321,11 @@ def test_killed_then_resumed_study_equals_the_uninterrupted_sweep(tmp_path, pool
     # the folder's model and scene are drawn: a --model or curl option naming others is refused
     assert load_study().main(["--out", str(out), "--report", "--model", "beam"]) == 2
     assert load_study().main(study(out, "--report", "--alpha", "0.1")[2:]) == 2
-    assert "not {" in capsys.readouterr().err
+    assert "(--alpha: given 0.1, folder 0.2)" in capsys.readouterr().err
+    # only the options named are compared: the folder's --max-time need not be repeated
+    assert load_study().main(["--out", str(out), "--report", "--alpha", "0.2"]) == 0
+    with pytest.raises(SystemExit):                 # no abbreviations slip past the check
+        load_study().parse(["--out", str(out), "--report", "--alp", "0.1"])
     assert (out / "sweep.json").read_text() == manifest and len(records(out)) == finished
     # a resume projects the time of the points left only
     module = load_study()

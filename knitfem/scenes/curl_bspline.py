@@ -224,12 +224,12 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     constants = YarnConstants() if constants is None else constants
     t0 = time.perf_counter()
-    # the swatch is built from the scene a checkpoint keeps: one recipe for both
+    bs = _prestretched(nw, nc, w=w, c=c, radius=radius, segments_per_loop=segments_per_loop,
+                       constants=constants, bindoff_stiffness=bindoff_stiffness, alpha=alpha)
     scene = {"nw": nw, "nc": nc, "alpha": alpha, "w": float(w), "c": float(c),
              "radius": float(radius), "segments_per_loop": int(segments_per_loop),
              "bindoff_stiffness": float(bindoff_stiffness), "method": method,
              "rtol": float(rtol), "constants": asdict(constants)}
-    bs = swatch_of(scene)
     monitor = Trace(bs) if trace else None
     name = name or f"bspline_{nw}x{nc}"
     run = _Checkpoints(out if checkpoint else None, name, method, resume, scene)
@@ -250,15 +250,21 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     return summary
 
 
+def _prestretched(nw, nc, *, alpha, **swatch):
+    """The swatch of :func:`bspline_swatch` with its pre-stretch alpha applied
+    (the one recipe of a run and of its checkpoint's scene)."""
+    bs = bspline_swatch(nw, nc, **swatch)
+    prestretch(bs, alpha)
+    return bs
+
+
 def swatch_of(scene):
     """The prestretched swatch of a checkpoint's ``scene`` (the dict
     :func:`bspline_curl` keeps in ``<name>_checkpoint.npz``)."""
-    bs = bspline_swatch(scene["nw"], scene["nc"], w=scene["w"], c=scene["c"],
-                        radius=scene["radius"], segments_per_loop=scene["segments_per_loop"],
-                        constants=YarnConstants(**scene["constants"]),
-                        bindoff_stiffness=scene["bindoff_stiffness"])
-    prestretch(bs, scene["alpha"])
-    return bs
+    return _prestretched(scene["nw"], scene["nc"], w=scene["w"], c=scene["c"],
+                         radius=scene["radius"], segments_per_loop=scene["segments_per_loop"],
+                         constants=YarnConstants(**scene["constants"]),
+                         bindoff_stiffness=scene["bindoff_stiffness"], alpha=scene["alpha"])
 
 
 def _commit():

@@ -140,10 +140,11 @@ def plot_phase_diagram(rows, path, title=None):
 
 
 def _row_line(ax, rows, value, nc):
-    """The finished points of the course count ``nc`` joined in N_w/N_c order
-    (the paper measured its trends along one such row)."""
+    """The converged points of the course count ``nc`` joined in N_w/N_c order
+    (the paper measured its trends along one such row; a shape out of time
+    would draw a trend that is not there)."""
     held = sorted((r["nw"] / r["nc"], value(r)) for r in rows
-                  if r["nc"] == nc and r.get("status") == "done" and value(r) is not None
+                  if r["nc"] == nc and point_state(r) == "converged" and value(r) is not None
                   and np.isfinite(value(r)))
     if len(held) >= 2:
         x, y = zip(*held)
