@@ -215,7 +215,7 @@ def report(args, quiet=False):
     and, where --nw / --nc were given, that grid too."""
     import json
     from pathlib import Path
-    from knitfem.scenes.curl_sweep import curl_point, sweep_constants
+    from knitfem.scenes.curl_sweep import curl_point
     from knitfem.sweep import SweepStore, point_key, task_name
     manifest_path = Path(args.out) / "sweep.json"
     try:                        # read before touching the folder: a mistyped --out stays absent
