@@ -46,7 +46,7 @@ from knitfem.io.run import RunFolder
 from knitfem.options import Check, Integer, OptionSet, Real, refuse
 from knitfem.scenes import curl_command
 from knitfem.scenes.curl_sweep import BEAM_OPTIONS, BSPLINE_OPTIONS, MODELS, adopt_run, \
-    phase_rows, phase_sweep, swatch_size
+    curl_point, phase_rows, phase_sweep, swatch_size, sweep_constants
 from knitfem.scenes.phase_output import counts_text, plot_phase_diagram, plot_phase_trends, \
     point_state, state_counts, write_phase_csv
 from knitfem.sweep import add_sweep_options, grid, parse_study, sweep_main
@@ -177,7 +177,6 @@ def projection(args):
     """A line on how long the grid may take (B-spline: each point at most
     --max-time plus its overhead; beam: ``knitfem curl``'s estimate); with
     --resume, the points the folder holds done are left out."""
-    from knitfem.scenes.curl_sweep import curl_point, sweep_constants
     from knitfem.sweep import SweepStore, point_key, task_name
     params = grid(nw=args.nw, nc=args.nc)
     done = 0
@@ -215,7 +214,6 @@ def report(args, quiet=False):
     and, where --nw / --nc were given, that grid too."""
     import json
     from pathlib import Path
-    from knitfem.scenes.curl_sweep import curl_point
     from knitfem.sweep import SweepStore, point_key, task_name
     manifest_path = Path(args.out) / "sweep.json"
     try:                        # read before touching the folder: a mistyped --out stays absent
@@ -274,7 +272,6 @@ def _named_not_held(args, model, held):
     (``held``: its stored curl options, where a relaxation option at its
     default is left out, as a resume leaves it out, and an option it lacks
     was at its default), as "--flag: given X, folder Y"."""
-    from knitfem.scenes.curl_sweep import sweep_constants
     named = getattr(args, "scene_named", {})
     given = {k: getattr(args, k) for k in named if getattr(args, k, None) is not None}
     normal = sweep_constants(model, given)["curl"]
