@@ -32,7 +32,6 @@ for run in "$@"; do
     rm -rf "$parked/$name"
     mkdir -p "$parked/$name"
     (cd "$run" && find . \( -name 'checkpoint.npz' -o -name '*_checkpoint.npz' \
-        -o -name run.json -o -name sweep.json \) -not -path './points/*' \
-        -exec cp --parents {} "$parked/$name/" \;)
+        -o -name run.json -o -name sweep.json \) -exec cp --parents {} "$parked/$name/" \;)
     echo "parked $name: $(du -sh "$parked/$name" | cut -f1)"
 done
