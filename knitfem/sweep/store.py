@@ -80,7 +80,7 @@ class SweepStore:
                                   "overwrite it")
         done = {}
         if resume and old is not None:
-            self.check_same(task, constants)
+            self.check_same(task, constants, old)
             done = self.finished(keys, points)
         elif self.points_dir.exists():
             shutil.rmtree(self.points_dir)
@@ -98,10 +98,11 @@ class SweepStore:
         write_json(self.out / MANIFEST, {**self.header, "complete": False})
         return done
 
-    def check_same(self, task, constants):
+    def check_same(self, task, constants, old=None):
         """Refuse (:class:`OutputError`) to resume ``task`` with ``constants``
-        where the folder holds another sweep (none held: nothing to refuse)."""
-        old = self.manifest()
+        where the folder holds another sweep (none held: nothing to refuse);
+        ``old``: its manifest, if already read."""
+        old = self.manifest() if old is None else old
         if old is not None and (old.get("task") != task
                                 or not _same(old.get("constants"), constants)):
             raise OutputError(
