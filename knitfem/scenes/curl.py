@@ -44,14 +44,15 @@ def increments_of(data, path="checkpoint"):
     rows = rows.reshape(len(rows), -1) if rows.size else np.zeros((0, len(INCREMENT_FIELDS)))
     names = ([str(n) for n in data["increment_fields"]] if "increment_fields" in data
              else list(INCREMENT_FIELDS[:rows.shape[1]]))
-    required = [f.name for f in fields(Increment) if f.default is MISSING]
+    columns = fields(Increment)
+    required = [f.name for f in columns if f.default is MISSING]
     wrong = (sorted(set(names) - set(INCREMENT_FIELDS)) or len(set(names)) != len(names) or
              len(names) != rows.shape[1] or not set(required) <= set(names))
     if wrong:
         raise ValueError(f"{path}: its {rows.shape[1]} increment columns ({', '.join(names)}) "
                          f"are not this code's ({', '.join(INCREMENT_FIELDS)}; at least "
                          f"{', '.join(required)}): a checkpoint of another version")
-    kinds = {f.name: f.type for f in fields(Increment)}
+    kinds = {f.name: f.type for f in columns}
     cast = {int: int, bool: bool}
     return [Increment(**{n: cast.get(kinds[n], float)(v) for n, v in zip(names, row)})
             for row in rows]
