@@ -169,3 +169,20 @@ def test_first_orders_the_points_left_but_not_the_results(tmp_path):
     run_sweep(_started, points, tmp_path / "plain", workers=0, progress=False,
               on_point=lambda record: seen.append(tuple(record["params"].values())))
     assert seen == [tuple(p.values()) for p in points]
+
+
+def test_a_worker_records_its_commit_before_the_point_runs():
+    """The commit a result names is cached in the worker before its first
+    point starts, not when the result is written hours later (the checkout
+    may have moved on by then while the process runs its old code)."""
+    from knitfem.io.run import source
+    from knitfem.sweep.engine import execute
+    source.cache_clear()
+    seen = {}
+
+    def task(params, tmp):
+        seen["cached"] = source.cache_info().currsize
+        return {"x": params["x"]}
+
+    outcome, _ = execute(task, {"x": 1.0})
+    assert outcome["status"] == "done" and seen["cached"] == 1

@@ -203,6 +203,7 @@ def curl(scene, *, out=None, render=True, progress=True, resume=False, relax_opt
     from ..analysis.curl import swatch_curl
     from ..analysis.profile import profile_fields
     t0 = time.perf_counter()
+    source()            # the commit that runs: cached now, not when the answer is written
     model, swatch, info = build(scene)
     homotopy = Homotopy.of_scene(model, scene)
     out = Path(out) if out is not None else None

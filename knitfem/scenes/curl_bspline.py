@@ -224,6 +224,7 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     constants = YarnConstants() if constants is None else constants
     t0 = time.perf_counter()
+    source()            # the commit that runs: cached now, not when the answer is written
     bs = _prestretched(nw, nc, w=w, c=c, radius=radius, segments_per_loop=segments_per_loop,
                        constants=constants, bindoff_stiffness=bindoff_stiffness, alpha=alpha)
     scene = {"nw": nw, "nc": nc, "alpha": alpha, "w": float(w), "c": float(c),

@@ -63,6 +63,11 @@ def execute(task, params, work_dir=None):
     from ..io.atomic import finite_or_none
     import json
     import numba
+    from ..io.run import source
+    # the commit this worker runs, taken before its first point: cached, a
+    # first call when a result is written (hours later) would name whatever
+    # the checkout holds then
+    source()
     threads = numba.get_num_threads()
     numba.set_num_threads(1)                   # per thread: also right in a Dask worker
     with tempfile.TemporaryDirectory(prefix="knitfem-point-") as tmp, \
