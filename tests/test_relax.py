@@ -314,6 +314,38 @@ def test_factorizer_keeps_an_order_for_new_patterns_and_solves_to_round_off(rng)
     assert small.orderings == 3
 
 
+def test_factorizer_orders_afresh_when_the_pattern_grew_beyond_its_share(rng):
+    """The kept order is for patterns near the one it was made for: a matrix
+    with more than ``growth`` more entries (the yarns coming into contact at
+    a relaxation's start) is ordered afresh -- the same factors as a fresh
+    Cholesky, bit for bit -- while one within it is factorised in the kept
+    order (the 55 x 35's factor ran out of memory in the order of its
+    contact-free start)."""
+    from scipy import sparse
+    from knitfem.solve.factor import Cholesky, Factorizer, cholmod_available
+    if not cholmod_available():
+        pytest.skip("scikit-sparse (the cholmod extra) is not installed")
+    n = 600
+    chain = sparse.diags([np.full(n - 1, -1.0), np.full(n, 4.0), np.full(n - 1, -1.0)],
+                         [-1, 0, 1], format="csc")                 # yarns, no contact
+    E = sparse.random(n, n, density=0.002, random_state=5)
+    coupled = sparse.csc_matrix(chain + E @ E.T)                   # many new couplings
+    i = np.arange(100)
+    band = sparse.coo_matrix((np.full(100, 0.1), (i, i + 3)), shape=(n, n))
+    near = sparse.csc_matrix(chain + band + band.T)                  # a few new couplings
+    assert coupled.nnz > 1.05 * chain.nnz and chain.nnz < near.nnz <= 1.4 * chain.nnz
+    b = rng.normal(size=n)
+    factorize = Factorizer(reorder=10, least_nnz=0, growth=0.05)
+    factorize(chain)
+    x = factorize(coupled).solve(b)
+    assert factorize.orderings == 2 and np.array_equal(x, Cholesky(coupled).solve(b))
+    loose = Factorizer(reorder=10, least_nnz=0, growth=0.5)        # within its share: kept
+    loose(chain)
+    x = loose(near).solve(b)
+    assert loose.orderings == 1 and loose.analyses == 2
+    assert np.allclose(near @ x, b, rtol=0, atol=1e-10 * np.abs(b).max())
+
+
 def test_kept_pattern_symmetrized_equals_the_blockwise_symmetric_part(rng):
     """block_matrix(..., keep_pattern=True, symmetrize=True) (the friction
     groups: one gather through the pattern's mirror) equals the symmetric

@@ -29,6 +29,7 @@ PROBE_TOL = 1e-12         # normwise backward error of the probe solve for a usa
 TINY_PIVOT = 1e-13        # pivots below this fraction of the largest count as zero
 REORDER = 10              # new patterns factorised in a kept order before ordering afresh (Factorizer)
 KEEP_ORDER_NNZ = 2_000_000    # ... for matrices with at least this many entries (below, ordering is cheap)
+KEEP_ORDER_GROWTH = 0.05      # ... and at most this share more entries than the ordered one
 
 
 class NotPositiveDefinite(ArithmeticError):
@@ -149,7 +150,13 @@ class Factorizer:
     6 steps).  Only matrices of ``least_nnz`` entries or more: below that the
     ordering costs no more than the permutation (10 x 35 early, 1.8e6
     entries: 37 ms either way; 4 x 4: 1.4 against 2.0 ms, and the whole 4 x 4
-    relaxation 10 % slower an iteration in a kept order).  ``reorder=0``
+    relaxation 10 % slower an iteration in a kept order).  And only while the
+    matrix has at most ``growth`` more entries than the one the order was made
+    for: a relaxation's first steps bring the yarns into contact (10 x 35 at
+    lam 0.34: 1.28e6 entries, then 1.56e6 and 1.87e6), and the order of the
+    contact-free start, kept for those couplings, filled the 55 x 35's factor
+    past 22 GB (killed by the kernel at its third step; CHOLMOD out of memory
+    under a 14 GB limit).  ``reorder=0``
     orders every pattern afresh; then the factors are
     those of :class:`Cholesky` bit for bit (the analysis does not depend on
     the values; tested), also after a refused, not positive definite matrix;
@@ -157,12 +164,13 @@ class Factorizer:
     of calls gives the same factors however often it is repeated: the order
     depends only on the matrices given since the Factorizer was made."""
 
-    def __init__(self, backend=None, reorder=REORDER, least_nnz=KEEP_ORDER_NNZ):
+    def __init__(self, backend=None, reorder=REORDER, least_nnz=KEEP_ORDER_NNZ,
+                 growth=KEEP_ORDER_GROWTH):
         self.backend = backend
-        self.reorder, self.least_nnz = int(reorder), int(least_nnz)
+        self.reorder, self.least_nnz, self.growth = int(reorder), int(least_nnz), float(growth)
         self._pattern = None
         self._factor = None
-        self._order = None          # (permutation, patterns factorised in it since)
+        self._order = None          # [permutation, patterns factorised in it since, its nnz]
         self._gather = None         # A.data -> the permuted matrix's data, for this pattern
         self.analyses = 0           # symbolic analyses made
         self.orderings = 0          # of which fill-reducing orderings
@@ -180,9 +188,9 @@ class Factorizer:
             self._pattern = (A.indptr.copy(), A.indices.copy())
             self.analyses += 1
             if (self._order is None or self._order[1] >= self.reorder or
-                    A.nnz < self.least_nnz):
+                    A.nnz < self.least_nnz or A.nnz > (1.0 + self.growth) * self._order[2]):
                 self._factor = _cholmod.analyze(A, ordering_method="default")
-                self._order, self._gather = [self._factor.P(), 0], None
+                self._order, self._gather = [self._factor.P(), 0, A.nnz], None
                 self.orderings += 1
             else:
                 perm = self._order[0]
