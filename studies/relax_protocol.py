@@ -8,7 +8,8 @@ penetration on the way.
 
 Variants (keyword arguments of :func:`knitfem.scenes.fabric_relax.relax_fabric`):
 ``default`` (increments of 0.1 growing to 0.25, rounds of 200 steps x 4),
-``rounds60`` (rounds of 60 x 8), ``thirds`` (increments of 1/3), ``one`` (one
+``rounds60`` (rounds of 60 x 8), ``thirds`` (increments of 1/3),
+``thirds_rounds60`` (both), ``one`` (one
 increment, rounds of 60 x 8), ``reanchor20`` (a round ends early to anchor
 the friction of the contacts formed in it, once they exceed 20 % of those
 touching at its start: ``knitfem curl --reanchor 0.2``).  One BLAS / numba thread each; variants run
@@ -36,6 +37,7 @@ VARIANTS = {
     "default": {},
     "rounds60": {"iterations": 60, "max_rounds": 8},
     "thirds": dict(SCHEDULES["thirds"]),      # knitfem curl --paths thirds
+    "thirds_rounds60": {**SCHEDULES["thirds"], "iterations": 60, "max_rounds": 8},
     "one": {"dlam": 1.0, "dlam_max": 1.0, "iterations": 60, "max_rounds": 8},
     "reanchor20": {"reanchor": 0.2},
 }
