@@ -1,7 +1,7 @@
 #!/bin/sh
 # Resume the parked runs (from the repository root, after `make .venv/.installed-stamp`).
 # A run whose folder already exists under /work/runs (the same machine) resumes there as it is.
-# phase_a03: the alpha 0.2 beam phase grid (its 20 x 20 point parked in its first increment).
+# phase_a03: the alpha 0.2 beam phase grid (its 20 x 20 point parked on its way from lam 0.4 to 0.55).
 # t55x35_thirds: the paper's 55 x 35 along increments of 1/3 (issue 9), parked at lam 0.34.
 set -e
 mkdir -p /work/runs
