@@ -15,14 +15,13 @@ those), of full steps, of line-search cuts and of steps on the PSD model.
 Nothing in the relaxation changes: the same path, step for step.
 """
 import argparse
-import json
 import sys
 import time
 
 import numpy as np
 
 import knitfem.scenes.fabric_relax as fabric_relax
-from knitfem.io import write_json
+from knitfem.io import write_json, write_text
 from knitfem.solve import minimize as minimize_module
 
 FIELDS = ("energy", "residual", "mu", "t", "hessian", "cap")
@@ -92,8 +91,7 @@ def main(argv=None):
     table = summary(rounds)
     print(table)
     if args.summary:
-        with open(args.summary, "w") as f:
-            f.write(table)
+        write_text(args.summary, table)
     return code
 
 

@@ -108,7 +108,6 @@ def curl_paths(scene, names, *, out=None, render=True, progress=True, resume=Fal
     the combined summary goes to ``out/curl_<nw>x<nc>.json``."""
     from .curl import check_same_run, curl
     from .fabric import FabricScene
-    source()            # the commit that runs: cached now, not when the answer is written
     out = Path(out) if out is not None else None
     summaries = []
     for name in names:
