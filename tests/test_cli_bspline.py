@@ -66,3 +66,14 @@ def test_a_run_ended_by_its_time_limit_alone_shows_no_step_eta():
     assert list(step_numbers(3, 60.0)) == [1, 2, 3]
     with pytest.raises(ValueError, match="max_steps"):
         step_numbers(None, None)
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--model", "bspline", "--exact-tries", "2"], "--exact-tries does not apply to --model "
+     "bspline"),
+    (["--exact-tries", "0"], "--exact-tries must be an integer in [1, 8], got 0"),
+])
+def test_cli_curl_checks_exact_tries(argv, says, capsys):
+    assert main(["curl", "--nw", "3", "--nc", "4", *argv, "--quiet", "--no-render"]) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err and len(err.strip().splitlines()) == 1

@@ -434,7 +434,8 @@ def _scripted_rounds(monkeypatch, residuals, tol=1e-8, moves=None):
     class Result:
         pass
 
-    def scripted(model, state, lam, tol_, iterations, progress=None, reanchor=None):
+    def scripted(model, state, lam, tol_, iterations, progress=None, reanchor=None,
+                 exact_tries=None):
         result = Result()
         result.state = type(state)(stretched(state.x, next(shifts)), state.q.copy())
         result.iterations, result.energy, result.stopped = 1, 0.0, False
@@ -454,7 +455,8 @@ def _rounds_ending_early(monkeypatch, outcomes, calls):
     class Result:
         pass
 
-    def scripted(model, state, lam, tol_, iterations, progress=None, reanchor=None):
+    def scripted(model, state, lam, tol_, iterations, progress=None, reanchor=None,
+                 exact_tries=None):
         calls.append(reanchor)
         outcome = next(outcomes)
         result = Result()
@@ -811,7 +813,8 @@ def _converged_rounds(monkeypatch, next_state):
     class Result:
         pass
 
-    def scripted(model, state, lam, tol, iterations, progress=None, reanchor=None):
+    def scripted(model, state, lam, tol, iterations, progress=None, reanchor=None,
+                 exact_tries=None):
         result = Result()
         result.state = next_state(state)
         result.iterations, result.energy, result.residual, result.converged = 1, 0.0, 1e-9, True
@@ -959,3 +962,38 @@ def test_a_checkpoint_from_before_the_corotated_friction_resumes_as_fixed_planes
     assert load_checkpoint(path, old, model)[1] == 0.0
     with pytest.raises(ValueError, match="other parameters"):
         load_checkpoint(path, FabricScene(3, 4, elements_per_loop=16, alpha=0.05), model)
+
+
+def test_exact_tries_is_a_path_option_recorded_only_off_its_default(tmp_path):
+    """``--exact-tries`` decides the steps, so the path: a run records it
+    (only when it differs from the minimiser's default), its checkpoint
+    refuses to resume without it, and it reaches the minimiser of every round."""
+    from knitfem.scenes import curl as curl_module
+    from knitfem.scenes.curl_command import relax_protocol
+    from knitfem.solve.minimize import SHIFTS
+    assert relax_protocol(exact_tries=SHIFTS) is None
+    assert relax_protocol(exact_tries=2) == {"exact_tries": 2}
+    scene = FabricScene(3, 3, elements_per_loop=16)
+    model, _, _ = build(scene)
+    state = model.initial_state()
+    path = tmp_path / "checkpoint.npz"
+    curl_module._save_checkpoint(path, scene, state, 0.4, 0.1, [], None,
+                                 protocol={"exact_tries": 2})
+    curl_module.load_checkpoint(path, scene, model, {"exact_tries": 2})
+    for other in (None, {"exact_tries": 3}):
+        with pytest.raises(ValueError, match="another relaxation protocol"):
+            curl_module.load_checkpoint(path, scene, model, other)
+    seen = []
+    real = fabric_relax.minimize
+
+    def spy(*args, **options):
+        seen.append(options["shifts"])
+        return real(*args, **options)
+    try:
+        fabric_relax.minimize = spy
+        Homotopy(model, scene.alpha).apply(0.05)
+        fabric_relax._round(model, state, 0.05, 1e-8, 2, exact_tries=1)
+        fabric_relax._round(model, state, 0.05, 1e-8, 2)
+    finally:
+        fabric_relax.minimize = real
+    assert seen == [1, SHIFTS]

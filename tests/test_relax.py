@@ -110,6 +110,11 @@ def test_an_indefinite_hessian_is_shifted_not_replaced_by_the_psd_model():
     result = minimize(problem, x0, tol=1e-10, max_iter=30)
     assert result.converged and np.allclose(result.state, 1.0, atol=1e-9)
     assert all(h[4] == "exact" for h in result.history)
+    # the shift it needs (~0.3 of the diagonal) is three decades above mu: with
+    # one try of the exact Hessian (``shifts=1``) the first steps take the
+    # PSD model instead, so the steps chose as the option says
+    fewer = minimize(problem, x0, tol=1e-10, max_iter=30, raise_on_failure=False, shifts=1)
+    assert fewer.history[0][4] == "psd"
 
 
 class _Wall:

@@ -5,7 +5,8 @@
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
                  [--bindoff-prestretch] [--tail-ties 1] [--paths default,coarse]
-                 [--reanchor SHARE] [--max-rounds 4] [--snap-rounds 8] [--settle N]
+                 [--reanchor SHARE] [--exact-tries 4] [--max-rounds 4] [--snap-rounds 8]
+                 [--settle N]
                  [--max-time 1800] [--rest-tol 0.1] [--out DIR]
                  [--json FILE] [--resume] [--no-render] [--quiet] [--no-limits]
 
@@ -153,6 +154,11 @@ OPTIONS = OptionSet(
          "the contacts formed in it, once the segments that came into contact exceed this "
          "share of those touching at the round's start (and 4; default: rounds run "
          "whole; README: 'Re-anchoring as contacts form')", metavar="SHARE"),
+    Integer("--exact-tries", None, "[1, 8]", when=("model", "beam", "the bspline "
+            "relaxation takes no Newton steps on its way"), help="beam: shifts of the exact "
+            "Hessian (mu, 10 mu, ...) a minimisation step tries before it takes the per-block "
+            "positive semi-definite model (default 4; README: 'Fewer shifts of the exact "
+            "Hessian'). Part of the path: a resume keeps it"),
     Integer("--max-rounds", None, "[1, 50]", when=("model", "beam", "the bspline "
             "relaxation has no friction rounds"), help="beam: friction rounds an increment "
             "may take before it is halved (default 4; twice that at lam = 1). A resume may "
@@ -224,15 +230,19 @@ def add_parser(subparsers):
 
 
 # the options that go to the relaxation (relax_fabric keywords), not the scene
-PROTOCOL = ("reanchor", "max_rounds", "snap_rounds", "settle")
+PROTOCOL = ("reanchor", "max_rounds", "snap_rounds", "settle", "exact_tries")
 
 
-def relax_protocol(reanchor=None, max_rounds=None, snap_rounds=None, settle=None):
+def relax_protocol(reanchor=None, max_rounds=None, snap_rounds=None, settle=None,
+                   exact_tries=None):
     """The relaxation options of a beam run (:data:`PROTOCOL`), those at their
     default left out; None when none is left (a run with the defaults names no
     protocol, and its checkpoints and summary say so)."""
+    from ..solve.minimize import SHIFTS
     from .fabric_rounds import MAX_ROUNDS, SNAP_ROUNDS
     protocol = {"reanchor": reanchor} if reanchor is not None else {}
+    if exact_tries is not None and exact_tries != SHIFTS:
+        protocol["exact_tries"] = exact_tries
     if max_rounds is not None and max_rounds != MAX_ROUNDS:
         protocol["max_rounds"] = max_rounds
     if snap_rounds is not None and snap_rounds != SNAP_ROUNDS:

@@ -38,7 +38,8 @@ BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_st
                    "ea_over_ei", "max_time", "max_steps", "method", "rtol", "rest_tol")
 BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiffness",
                 "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch",
-                "tail_ties", "paths", "reanchor", "max_rounds", "snap_rounds", "settle")
+                "tail_ties", "paths", "reanchor", "max_rounds", "snap_rounds", "settle",
+                "exact_tries")
 # what a point keeps of the model's summary (the rest is in its JSON file)
 KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "local_roll_deg", "height",
         "height_over_width", "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",
@@ -185,8 +186,8 @@ def adopt_run(out, summary_path, nw_values=None, nc_values=None, replace=False):
     if ran != wanted:
         raise ValueError(f"adopt {path}: relaxed with the protocol options "
                          f"{summary.get('protocol') or {}}, the sweep's points with {wanted} "
-                         "(--reanchor, --max-rounds, --snap-rounds, --settle; a budget changed "
-                         "on a resume counts too)")
+                         "(--reanchor, --exact-tries, --max-rounds, --snap-rounds, --settle; a "
+                         "budget changed on a resume counts too)")
     if options.pop("paths", None) is not None:
         raise ValueError(f"adopt {path}: the sweep relaxes each point along several paths; "
                          "a single run is not such a point")

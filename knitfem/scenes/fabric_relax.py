@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..beam.energy import EnergyProblem
-from ..solve.minimize import RelaxationError, minimize
+from ..solve.minimize import SHIFTS, RelaxationError, minimize
 from ..solve.stability import inertia, lowest_scaled_eigenvalue
 from .fabric_rounds import (MAX_ROUNDS, SNAP_ROUNDS, another_round, round_move,
                             settle_pass_due, smallest_radius)
@@ -156,10 +156,13 @@ def _contacts_formed(contact, share, min_steps):
     return stop
 
 
-def _round(model, state, lam, tol, iterations, progress=None, reanchor=None, min_steps=10):
+def _round(model, state, lam, tol, iterations, progress=None, reanchor=None, min_steps=10,
+           exact_tries=SHIFTS):
     """One friction round: re-anchor (carrying slips) and minimise; with
     ``reanchor`` (a share, see :func:`_contacts_formed`) the round ends early,
-    unconverged and ``stopped``, once that many new contacts have formed."""
+    unconverged and ``stopped``, once that many new contacts have formed.
+    ``exact_tries``: shifts of the exact Hessian tried before the PSD model
+    (:func:`~knitfem.solve.minimize.minimize`'s ``shifts``)."""
     contact = model.contact_model
     if contact is not None:
         contact.anchor_friction(state.x, state.q)
@@ -175,7 +178,7 @@ def _round(model, state, lam, tol, iterations, progress=None, reanchor=None, min
     if reanchor and contact is not None and contact.friction > 0.0:
         stop = _contacts_formed(contact, reanchor, min_steps)
     result = minimize(problem, state, tol=tol, max_iter=iterations, progress=both,
-                      raise_on_failure=False, stop=stop)
+                      raise_on_failure=False, stop=stop, shifts=exact_tries)
     return result, gap[0]
 
 
@@ -202,7 +205,7 @@ class Partial:
 
 def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=None,
                min_rounds=1, start=None, on_round=None, extra_rounds=0, reanchor=None,
-               snap_rounds=0):
+               snap_rounds=0, exact_tries=SHIFTS):
     """Friction rounds at lam until one converges (after at least
     ``min_rounds``) and moved no node more than ``creep`` (the lagged normal
     forces have settled), or ``max_rounds`` rounds of which the last
@@ -241,7 +244,8 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
     while more():
         allow = reanchor if early < max_rounds * iterations else None
         try:
-            result, g = _round(model, state, lam, tol, iterations, progress, allow)
+            result, g = _round(model, state, lam, tol, iterations, progress, allow,
+                               exact_tries=exact_tries)
         except RelaxationError as err:
             total += len(err.history)
             return failed(f"round {k + 1} at lam = {lam:.4g}: {err}")
@@ -289,7 +293,7 @@ def _increment(model, state, lam, tol, iterations, max_rounds, creep, progress=N
 def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-3, dlam=DLAM,
                  dlam_max=DLAM_MAX, dlam_min=1e-3, iterations=200, max_rounds=MAX_ROUNDS, creep=None,
                  progress=None, checkpoint=None, partial=None, increments=(), reanchor=None,
-                 snap_rounds=SNAP_ROUNDS, settle=0):
+                 snap_rounds=SNAP_ROUNDS, settle=0, exact_tries=SHIFTS):
     """Relax ``model`` from ``state`` (default its layout) at homotopy ``lam``
     to lam = 1 (see the module docstring).
 
@@ -317,7 +321,9 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
     (a finished run's checkpoint) they are the only work done.  A pass that
     ends without a converged round leaves the answer before it (unsettled),
     its work recorded as a failed attempt; it counts as a pass
-    (:func:`~.fabric_rounds.settle_passes`).  Returns :class:`FabricEquilibrium`.
+    (:func:`~.fabric_rounds.settle_passes`).  exact_tries : shifts of the exact
+    Hessian a step tries (mu, 10 mu, ...) before the per-block PSD model
+    (README: 'Fewer shifts of the exact Hessian').  Returns :class:`FabricEquilibrium`.
     """
     state = model.initial_state() if state is None else state
     if creep is None:
@@ -352,7 +358,7 @@ def relax_fabric(model, homotopy, state=None, *, lam=0.0, tol=1e-8, path_tol=1e-
                                            creep if last else np.inf, progress,
                                            2 if last and not polish else 1, partial, on_round,
                                            2 * max_rounds if last else 0, reanchor,
-                                           snap_rounds)
+                                           snap_rounds, exact_tries)
         partial = None
         if result is None:
             # the failed attempt's work counts (iterations, time), not its path

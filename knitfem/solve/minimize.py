@@ -76,7 +76,7 @@ def _factor(H, D, mu, factorize=Cholesky):
 
 
 def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progress=None,
-             raise_on_failure=True, stop=None):
+             raise_on_failure=True, stop=None, shifts=SHIFTS):
     """Minimise the problem's energy from ``x0`` until ``residual(g) <= tol``.
 
     Returns :class:`Relaxed`; raises :class:`RelaxationError` (keeping the
@@ -87,6 +87,8 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
     every step (the problem's last evaluation is then the current state;
     iteration 0 is the start), may end the minimisation unconverged
     (``stopped``): the caller wants to change the problem first.
+    ``shifts``: tries of the exact Hessian (shifted mu, 10 mu, ...) before the
+    PSD model.
     """
     x = x0
     E, g, H, Hp = problem.evaluate(x, True)
@@ -120,7 +122,7 @@ def minimize(problem, x0, *, tol=1e-6, max_iter=500, mu=1e-3, max_cuts=12, progr
             # swatch at alpha 0.2 the PSD steps crept (residual 0.15 -> 0.046
             # in 180 full steps) where the shifted ones converged in 198
             shift = max(mu, shift_last / 3.0)
-            for _ in range(SHIFTS):
+            for _ in range(shifts):
                 try:
                     chol, used = _factor(H, D, shift, factorize), "exact"
                     exact_failed, shift_last = 0, (shift if shift > mu else 0.0)
