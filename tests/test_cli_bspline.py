@@ -77,3 +77,14 @@ def test_cli_curl_checks_exact_tries(argv, says, capsys):
     assert main(["curl", "--nw", "3", "--nc", "4", *argv, "--quiet", "--no-render"]) == 2
     err = capsys.readouterr().err
     assert says in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--model", "bspline", "--straighten", "0.5"], "--straighten does not apply to --model "
+     "bspline"),
+    (["--straighten", "1.5"], "--straighten must be a number in [0, 1], got 1.5"),
+])
+def test_cli_curl_checks_straighten(argv, says, capsys):
+    assert main(["curl", "--nw", "3", "--nc", "4", *argv, "--quiet", "--no-render"]) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err and len(err.strip().splitlines()) == 1

@@ -997,3 +997,25 @@ def test_exact_tries_is_a_path_option_recorded_only_off_its_default(tmp_path):
     finally:
         fabric_relax.minimize = real
     assert seen == [1, SHIFTS]
+
+
+def test_straighten_sets_how_much_knitted_curvature_the_yarn_loses():
+    """``straighten`` scales the bend stage only: at lam = 1 the knit yarn's
+    natural curvature is (1 - straighten) x the knitted one (0: it keeps its
+    knitted shape), its rest length shrinks by alpha either way, and the
+    bind-off keeps its helix; a share outside [0, 1] is refused by name."""
+    results = {}
+    for share in (1.0, 0.5, 0.0):
+        scene = FabricScene(3, 3, elements_per_loop=16, alpha=0.2, straighten=share)
+        model, _, _ = build(scene)
+        asm = model.assembly
+        knit = asm.rod_of_element == 0
+        kappa_knitted, gamma_knitted = asm.kappa0.copy(), asm.gamma0.copy()
+        Homotopy.of_scene(model, scene).apply(1.0)
+        assert np.allclose(asm.kappa0[knit], (1.0 - share) * kappa_knitted[knit], atol=1e-15)
+        assert np.allclose(asm.kappa0[~knit], kappa_knitted[~knit], atol=1e-15)
+        assert np.allclose(asm.gamma0[knit, 0], 0.8 * gamma_knitted[knit, 0], rtol=1e-12)
+        results[share] = asm.kappa0[knit].copy()
+    assert np.abs(results[1.0]).max() == 0.0 and np.abs(results[0.0]).max() > 0.1
+    with pytest.raises(ValueError, match=r"straighten must be in \[0, 1\]"):
+        Homotopy(build(FabricScene(3, 3, elements_per_loop=16))[0], 0.2, straighten=1.5)

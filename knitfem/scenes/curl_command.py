@@ -4,7 +4,7 @@
                  [--w 4 --c 3 --radius 0.4] [--elements-per-loop 32]
                  [--gj-over-ei 0.667] [--ea-over-ei 800] [--friction 0.3]
                  [--friction-frame corotated|anchor] [--bindoff-stiffness 10]
-                 [--bindoff-prestretch] [--tail-ties 1] [--paths default,coarse]
+                 [--bindoff-prestretch] [--tail-ties 1] [--straighten 1] [--paths default,coarse]
                  [--reanchor SHARE] [--exact-tries 4] [--max-rounds 4] [--snap-rounds 8]
                  [--settle N]
                  [--max-time 1800] [--rest-tol 0.1] [--out DIR]
@@ -140,6 +140,11 @@ OPTIONS = OptionSet(
          "residual')"),
     Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
          help="bind-off stiffness relative to the yarn's"),
+    Real("--straighten", 1.0, "[0, 1]", when=("model", "beam", "the bspline yarn is "
+         "naturally straight"), help="beam: share of its knitted curvature the knit yarn "
+         "loses over the relaxation (1: naturally straight, the paper's yarn; 0: it keeps its "
+         "knitted shape as its natural one, pre-stretched all the same: a yarn set by the "
+         "knitting)"),
     Integer("--tail-ties", 1, "[1, 4]", when=("model", "beam", "the bspline scene ties "
             "each tail at its end"), help="beam: points of each yarn tail tied into the other "
             "yarn (1: its end; n > 1: its last n points, each to the two nearest, holding "
@@ -265,7 +270,7 @@ def scene_of(args):
                        ea_over_ei=args.ea_over_ei, gj_over_ei=args.gj_over_ei,
                        bindoff_stiffness=args.bindoff_stiffness, friction=args.friction,
                        inflation=args.inflation, bindoff_prestretch=args.bindoff_prestretch,
-                       tail_ties=args.tail_ties,
+                       tail_ties=args.tail_ties, straighten=args.straighten,
                        corotated_friction=(args.friction_frame or "corotated") == "corotated")
 
 

@@ -103,6 +103,10 @@ class FabricScene:
     # grows as the elements per loop fall (5 x 5: 0.12 at 16 per loop, 0.08 at
     # 24, 0.06 at 32-48), so a refinement study holds it fixed
     inflation: float = None
+    # the share of the knitted curvature the knit yarn loses over the homotopy:
+    # 1, naturally straight (the paper's yarn); 0, it keeps its knitted shape
+    # as its natural shape (a yarn set by knitting, pre-stretched all the same)
+    straighten: float = 1.0
 
     def as_dict(self):
         return asdict(self)
@@ -250,15 +254,24 @@ class Homotopy:
     helices keep their knitted length while the knit under them shrinks, so a
     bind-off edge is longer than the knit it closes and its helix buckles out
     (the suspected cause of a 10 x 35 tube's flared ends -- rejected: with the
-    shrink its top and bottom roll more than a full turn, README)."""
+    shrink its top and bottom roll more than a full turn, README).
+
+    ``straighten``: the share of the knitted curvature (and shear) the knit
+    yarn loses by lam = 1 (1: naturally straight, the paper's yarn; 0: its
+    natural shape stays the knitted one, only its rest length shrinks)."""
 
     @classmethod
     def of_scene(cls, model, scene):
         """The homotopy of a :class:`FabricScene`'s model (its alpha and
         bind-off pre-stretch: what ``knitfem curl`` relaxes along)."""
-        return cls(model, scene.alpha, bindoff=scene.bindoff_prestretch)
+        return cls(model, scene.alpha, bindoff=scene.bindoff_prestretch,
+                   straighten=scene.straighten)
 
-    def __init__(self, model, alpha, split=0.3, bindoff=False):
+    def __init__(self, model, alpha, split=0.3, bindoff=False, straighten=1.0):
+        straighten = float(straighten)
+        if not 0.0 <= straighten <= 1.0:
+            raise ValueError(f"straighten must be in [0, 1] (the share of the knitted "
+                             f"curvature the yarn loses), got {straighten!r}")
         asm = model.assembly
         self.assembly = asm
         self.knit = asm.rod_of_element == 0
@@ -267,11 +280,12 @@ class Homotopy:
         self.CN, self.CM = asm.CN.copy(), asm.CM.copy()
         self.alpha = float(alpha)
         self.split = float(split) if alpha > 0 else 0.0
+        self.straighten = straighten
 
     def apply(self, lam):
         asm, k = self.assembly, self.knit
         stretch = min(1.0, lam / self.split) if self.split > 0 else 1.0
-        bend = max(0.0, (lam - self.split) / (1.0 - self.split))
+        bend = self.straighten * max(0.0, (lam - self.split) / (1.0 - self.split))
         # energy per rest length h0 = s h: W = h/(2 s) C (strain - s e1)^2 per knitted length h
         s = 1.0 - stretch * self.alpha
         shrinks = self.shrinks
