@@ -38,8 +38,8 @@ BSPLINE_OPTIONS = ("alpha", "w", "c", "radius", "segments_per_loop", "bindoff_st
                    "ea_over_ei", "max_time", "max_steps", "method", "rtol", "rest_tol")
 BEAM_OPTIONS = ("alpha", "w", "c", "radius", "elements_per_loop", "bindoff_stiffness",
                 "ea_over_ei", "gj_over_ei", "friction", "inflation", "bindoff_prestretch",
-                "tail_ties", "straighten", "paths", "reanchor", "max_rounds", "snap_rounds", "settle",
-                "exact_tries")
+                "tail_ties", "straighten", "paths", "reanchor", "max_rounds", "snap_rounds",
+                "settle", "exact_tries")
 # what a point keeps of the model's summary (the rest is in its JSON file)
 KEPT = ("curl", "roll_deg", "curvature_x", "curvature_y", "local_roll_deg", "height",
         "height_over_width", "loop_aspect", "edges_touch", "converged", "residual", "stable", "dofs",
