@@ -33,7 +33,8 @@ def _rounds(monkeypatch, moves, residuals=None, calls=None):
     class Result:
         pass
 
-    def scripted(model, state, lam, tol, iterations, progress=None, reanchor=None):
+    def scripted(model, state, lam, tol, iterations, progress=None, reanchor=None,
+                 exact_tries=None):
         if calls is not None:
             calls.append(lam)
         model.contact_model.anchor_friction(state.x, state.q)     # as _round does
