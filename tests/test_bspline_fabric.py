@@ -124,3 +124,23 @@ def test_bad_curl_input_names_the_parameter(kwargs, match):
     nw, nc = kwargs.pop("nw"), kwargs.pop("nc")
     with pytest.raises(ValueError, match=match):
         bspline_curl(nw, nc, max_time=1.0, progress=False, **kwargs)
+
+
+def test_a_checkpoints_scene_rebuilds_the_set_yarn():
+    """``knit_natural`` (``knitfem curl --model bspline --straighten 0``) is part
+    of a checkpoint's scene: it rebuilds the knit yarn curved as knitted (its
+    natural curvature nonzero) and pre-stretched; a scene stored before it
+    existed rebuilds the straight yarn."""
+    from dataclasses import asdict
+
+    from knitfem.scenes.curl_bspline import swatch_of
+    from knitfem.scenes.swatch_bspline import YarnConstants
+    scene = {"nw": 3, "nc": 4, "alpha": 0.2, "w": 4.0, "c": 3.0, "radius": 0.4,
+             "segments_per_loop": 16, "bindoff_stiffness": 10.0, "method": "fire",
+             "rtol": 1e-6, "constants": asdict(YarnConstants())}
+    for natural, curved in ((None, False), ("knitted", True)):
+        bs = swatch_of(scene if natural is None else {**scene, "knit_natural": natural})
+        knit = bs.model.yarn_of_segment == 0
+        assert bool(bs.model.curved[knit].all()) is curved
+        assert bool(np.abs(bs.model.kappa0[knit]).max() > 0.1) is curved
+        assert np.allclose(bs.model.rest[knit], 0.8 * bs.model.rest0[knit])

@@ -80,7 +80,7 @@ def test_cli_curl_checks_exact_tries(argv, says, capsys):
 
 
 @pytest.mark.parametrize("argv, says", [
-    (["--model", "bspline", "--straighten", "0.5"], "--straighten does not apply to --model "
+    (["--model", "bspline", "--straighten", "0.5"], "--straighten must be 0 or 1 with --model "
      "bspline"),
     (["--straighten", "1.5"], "--straighten must be a number in [0, 1], got 1.5"),
 ])

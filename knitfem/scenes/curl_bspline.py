@@ -195,7 +195,7 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
                  method="fire", rtol=1e-6, newton=True, max_time=1800.0, max_steps=None,
                  constants=None, bindoff_stiffness=10.0, out=None, name=None, progress=True,
                  trace=False, resume=False, checkpoint=True, checkpoint_every=600.0,
-                 rest_tol=0.1):
+                 rest_tol=0.1, knit_natural="straight"):
     """Curl of an nw x nc plain-knit swatch in the B-spline model: issue 9's
     JSON keys (dict) plus "constants", "energy", "method", "message" and the
     relaxation history.  Fields the model cannot measure are None (here every
@@ -212,7 +212,10 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     (the same swatch and constants, else ValueError naming what differs; no
     checkpoint: from the start), bit for bit the steps of an unbroken run.
     Then max_time is this call's, max_steps and "iterations" count from the
-    first run's first step and "relax_s" sums every run's relaxation."""
+    first run's first step and "relax_s" sums every run's relaxation.
+    knit_natural: "straight" (the paper's yarn) or "knitted" (its natural
+    curvature and torsion those of the knitted shape, pre-stretched all the
+    same: the beam's ``straighten`` 0, a yarn set by the knitting)."""
     nw = _check_count("nw", nw, 3)
     nc = _check_count("nc", nc, 4)
     if max_steps is not None:
@@ -226,11 +229,14 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     t0 = time.perf_counter()
     source()            # the commit that runs: cached now, not when the answer is written
     bs = _prestretched(nw, nc, w=w, c=c, radius=radius, segments_per_loop=segments_per_loop,
-                       constants=constants, bindoff_stiffness=bindoff_stiffness, alpha=alpha)
+                       constants=constants, bindoff_stiffness=bindoff_stiffness, alpha=alpha,
+                       knit_natural=knit_natural)
     scene = {"nw": nw, "nc": nc, "alpha": alpha, "w": float(w), "c": float(c),
              "radius": float(radius), "segments_per_loop": int(segments_per_loop),
              "bindoff_stiffness": float(bindoff_stiffness), "method": method,
              "rtol": float(rtol), "constants": asdict(constants)}
+    if knit_natural != "straight":          # the scenes stored before it existed: straight
+        scene["knit_natural"] = knit_natural
     monitor = Trace(bs) if trace else None
     name = name or f"bspline_{nw}x{nc}"
     run = _Checkpoints(out if checkpoint else None, name, method, resume, scene)
@@ -265,7 +271,8 @@ def swatch_of(scene):
     return _prestretched(scene["nw"], scene["nc"], w=scene["w"], c=scene["c"],
                          radius=scene["radius"], segments_per_loop=scene["segments_per_loop"],
                          constants=YarnConstants(**scene["constants"]),
-                         bindoff_stiffness=scene["bindoff_stiffness"], alpha=scene["alpha"])
+                         bindoff_stiffness=scene["bindoff_stiffness"], alpha=scene["alpha"],
+                         knit_natural=scene.get("knit_natural", "straight"))
 
 
 def _commit():
@@ -342,7 +349,8 @@ def bspline_curl_from_options(args):
                         constants=YarnConstants(ea_over_ei=float(args.ea_over_ei)),
                         max_time=args.max_time, out=args.out, progress=not args.quiet,
                         resume=getattr(args, "resume", False),
-                        rest_tol=getattr(args, "rest_tol", None) or 0.1)
+                        rest_tol=getattr(args, "rest_tol", None) or 0.1,
+                        knit_natural="knitted" if args.straighten == 0.0 else "straight")
 
 
 def summarise(bs, y, info):

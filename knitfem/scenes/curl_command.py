@@ -102,6 +102,9 @@ def _beam_only_flags(v):
     if getattr(v, "bindoff_prestretch", False) and _bspline(v):
         refuse("--bindoff-prestretch", "applies to --model beam only (the bspline bind-off "
                "keeps its knitted length)", True)
+    if _bspline(v) and getattr(v, "straighten", 1.0) not in (0.0, 1.0):
+        refuse("--straighten", "must be 0 or 1 with --model bspline (its yarn is naturally "
+               "straight or has the knitted shape as its natural one)", v.straighten)
     paths = getattr(v, "paths", None)
     if paths is not None:
         from .curl_paths import SCHEDULES, parse_paths
@@ -140,11 +143,10 @@ OPTIONS = OptionSet(
          "residual')"),
     Real("--bindoff-stiffness", 10.0, "[0.01, 1000]",
          help="bind-off stiffness relative to the yarn's"),
-    Real("--straighten", 1.0, "[0, 1]", when=("model", "beam", "the bspline yarn is "
-         "naturally straight"), help="beam: share of its knitted curvature the knit yarn "
+    Real("--straighten", 1.0, "[0, 1]", help="share of its knitted curvature the knit yarn "
          "loses over the relaxation (1: naturally straight, the paper's yarn; 0: it keeps its "
          "knitted shape as its natural one, pre-stretched all the same: a yarn set by the "
-         "knitting)"),
+         "knitting; the bspline model takes 0 or 1)"),
     Integer("--tail-ties", 1, "[1, 4]", when=("model", "beam", "the bspline scene ties "
             "each tail at its end"), help="beam: points of each yarn tail tied into the other "
             "yarn (1: its end; n > 1: its last n points, each to the two nearest, holding "
