@@ -408,3 +408,14 @@ def test_every_curl_option_the_study_takes_reaches_some_model():
     keys = {spec.flag.lstrip("-").replace("-", "_") for spec in module.OPTIONS.specs
             if isinstance(spec, Real)}
     assert keys and not keys - set(BEAM_OPTIONS) - set(BSPLINE_OPTIONS)
+
+
+def test_a_scene_option_added_later_keeps_the_stored_sweeps_resumable():
+    """``straighten`` came after sweeps were stored: at its old value (1, the
+    straight yarn every stored sweep ran with) it is left out of a sweep's
+    constants, so those sweeps resume; another value is a constant like any."""
+    from knitfem.scenes.curl_sweep import sweep_constants
+    stored = {"alpha": 0.2, "tail_ties": 1}
+    assert sweep_constants("beam", {**stored, "straighten": 1.0}) == \
+        sweep_constants("beam", stored) == {"model": "beam", "curl": stored}
+    assert sweep_constants("beam", {**stored, "straighten": 0.0})["curl"]["straighten"] == 0.0

@@ -301,10 +301,18 @@ def _normal_protocol(options):
     return {**options, **protocol}
 
 
+# scene options added after sweeps were stored, at the value those sweeps ran
+# with: left out of the constants, so the stored sweeps resume as they are
+ADDED_SCENE_OPTIONS = {"straighten": 1.0}
+
+
 def sweep_constants(model, options):
     """The constants a phase sweep of ``model`` with the curl ``options``
-    stores (and compares on a resume)."""
-    return {"model": model, "curl": _normal_protocol(dict(options or {}))}
+    stores (and compares on a resume); an option of
+    :data:`ADDED_SCENE_OPTIONS` at its old value is left out."""
+    options = {k: v for k, v in (options or {}).items()
+               if not (k in ADDED_SCENE_OPTIONS and v == ADDED_SCENE_OPTIONS[k])}
+    return {"model": model, "curl": _normal_protocol(options)}
 
 
 def swatch_size(point):
