@@ -80,8 +80,12 @@ def panel(runs, out):
         r = summary["roll_deg"]
         scene = summary["scene"]
         mirrored = " (mirrored)" if scene.get("mirror") else ""
+        # a yarn that keeps part of its knitted curvature (--straighten < 1) says so
+        kept = scene.get("straighten", 1.0)
+        yarn = "" if kept == 1.0 else f", straighten {kept:g}"
         axes[0, k].set_title(f"N_w × N_c = {summary['nw']} × {summary['nc']}{mirrored}, α = "
-                             f"{summary['alpha']:g}, μ = {scene['friction']:g}, path {path_name(summary)}\n"
+                             f"{summary['alpha']:g}, μ = {scene['friction']:g}{yarn}, "
+                             f"path {path_name(summary)}\n"
                              f"{summary['curl']} curl"
                              + ("" if summary["converged"] else " (NOT converged)")
                              + f"\nrolls L/R/T/B {r['left']:.0f}/{r['right']:.0f}/"
