@@ -10,7 +10,12 @@ knitfem's kernels are cached in a folder named by a hash of every knitfem
 source file: any change to any of them compiles afresh (~20–60 s, once).
 
 The folder: ``$NUMBA_CACHE_DIR/knitfem-<hash>`` if that variable is set, else
-``~/.cache/knitfem/numba-<hash>``.
+``~/.cache/knitfem/numba-<hash>``.  It goes into ``NUMBA_CACHE_DIR`` too: numba
+re-reads its configuration from the environment whenever a ``NUMBA_*``
+variable changes (a script setting ``NUMBA_NUM_THREADS`` after importing
+knitfem, a test's ``monkeypatch``), and a folder set only in ``numba.config``
+was then dropped for every kernel defined afterwards (seen in the test suite,
+2026-12-08).
 """
 import hashlib
 import os
@@ -29,15 +34,22 @@ def source_hash(root=PACKAGE):
 
 
 def cache_dir(root=PACKAGE, environ=os.environ):
+    digest = source_hash(root)
     base = environ.get("NUMBA_CACHE_DIR")
     if base:
-        return os.path.join(base, f"knitfem-{source_hash(root)}")
-    return os.path.join(os.path.expanduser("~"), ".cache", "knitfem",
-                        f"numba-{source_hash(root)}")
+        # already this source's folder (set by configure): itself, not a subfolder
+        if os.path.basename(os.path.normpath(base)) in (f"knitfem-{digest}", f"numba-{digest}"):
+            return base
+        return os.path.join(base, f"knitfem-{digest}")
+    return os.path.join(os.path.expanduser("~"), ".cache", "knitfem", f"numba-{digest}")
 
 
 def configure():
     """Point numba's cache at :func:`cache_dir` (before any kernel is
-    decorated: numba reads it when a cached function is defined)."""
+    decorated: numba reads it when a cached function is defined), in
+    ``numba.config`` and in ``NUMBA_CACHE_DIR``, so that numba's reloads of
+    its configuration keep it."""
     import numba
-    numba.config.CACHE_DIR = cache_dir()
+    folder = cache_dir()
+    os.environ["NUMBA_CACHE_DIR"] = folder
+    numba.config.CACHE_DIR = folder

@@ -28,3 +28,19 @@ def test_the_folder_follows_numba_cache_dir_and_is_what_numba_uses(tmp_path):
     assert numba_cache.cache_dir(environ=env) == os.path.join(
         str(tmp_path), f"knitfem-{numba_cache.source_hash()}")
     assert numba.config.CACHE_DIR == numba_cache.cache_dir()
+
+
+def test_numba_keeps_the_folder_when_it_reloads_its_configuration(monkeypatch):
+    """numba re-reads its configuration from the environment when a NUMBA_*
+    variable changes; the folder survives that (it was '' after it, and the
+    kernels defined afterwards were cached beside their source), and the
+    folder named in NUMBA_CACHE_DIR is taken as it is, not nested again."""
+    import numba
+    folder = numba_cache.cache_dir()
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")
+    numba.core.config.reload_config()
+    assert numba.config.CACHE_DIR == folder == os.environ["NUMBA_CACHE_DIR"]
+    monkeypatch.undo()
+    numba.core.config.reload_config()
+    assert numba.config.CACHE_DIR == folder
+    assert numba_cache.cache_dir(environ={"NUMBA_CACHE_DIR": folder}) == folder

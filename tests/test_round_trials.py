@@ -1,4 +1,5 @@
 """studies/round_trials.py: every line-search trial of a friction round (issue 9's speed work)."""
+import os
 import sys
 from pathlib import Path
 
@@ -7,7 +8,13 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
 
+# the study, a script, sets one-thread NUMBA_/BLAS variables when imported; in
+# this process they would make numba reload its configuration at the next
+# compilation and drop knitfem's cache folder (tests/test_numba_cache.py)
+_environ = dict(os.environ)
 from round_trials import PARTS, summarise, trial_round  # noqa: E402
+os.environ.clear()
+os.environ.update(_environ)
 
 from knitfem.scenes.fabric import FabricScene, Homotopy, build  # noqa: E402
 
