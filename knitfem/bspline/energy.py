@@ -6,7 +6,7 @@ curvature and tau the torsion (density: :mod:`.gausspoint`):
 
     stretching  E_len  = sum  EA/2 (|a|/l_g - 1)^2 l_g w          (Kaldor's k_len = EA/2)
     bending     E_bend = sum  EI/2 (kappa - kappa0)^2 |a| w      (= EI/2 (kappa - kappa0)^2 ds)
-                       + sum  EI/2 (tau - tau0)^2 |a| w         (naturally curved yarns only)
+                       + sum  t EI/2 (tau - tau0)^2 |a| w       (naturally curved yarns only)
     gravity     E_g    = -sum rho_l l g . r(u) w
 
 l_g is the rest speed at the Gauss point: the segment's rest length l_s for
@@ -94,8 +94,8 @@ def _combine(c, q, i0, i1, i2, i3):
 
 
 @njit(cache=True)
-def _elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, g_stretch, g_bend,
-             e_stretch, e_bend):
+def _elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, dB, ddB, w, B3, g_stretch,
+             g_bend, e_stretch, e_bend):
     for s in range(seg.shape[0]):
         i0, i1, i2, i3 = seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3]
         d = _combine(B3, q, i0, i1, i2, i3)
@@ -103,13 +103,14 @@ def _elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, g_stret
             a = _combine(dB[g], q, i0, i1, i2, i3)
             b = _combine(ddB[g], q, i0, i1, i2, i3)
             e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], EA[s], 0.0, 0.0, 0.0,
-                                                   False, w[g])
+                                                   0.0, w[g])
             e_stretch[s] += e
             for j in range(4):
                 for k in range(3):
                     g_stretch[seg[s, j], k] += dB[g, j] * e_a[k]
             e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], 0.0, EI[s],
-                                                   kappa0[s, g], tau0[s, g], curved[s], w[g])
+                                                   kappa0[s, g], tau0[s, g],
+                                                   torsion_weight[s, g], w[g])
             e_bend[s] += e
             for j in range(4):
                 for k in range(3):
@@ -117,23 +118,23 @@ def _elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, g_stret
                                              + B3[j] * e_d[k])
 
 
-def elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, quad, g_stretch, g_bend):
+def elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, quad, g_stretch, g_bend):
     """Stretching and bending energies (returned separately); their gradients
     are added to ``g_stretch`` and ``g_bend`` (n, 3).
 
     q (n, 3) control points; seg (S, 4); rest (S, G) rest speeds |r'| at the
     Gauss points; EA, EI (S,); kappa0, tau0 (S, G) natural curvature and
-    torsion; curved (S,) bool: torsion term on.  (Energies are summed per
-    segment, then pairwise by numpy: a running sum over 1e5 Gauss points
-    would lose the small energy changes near rest.)"""
+    torsion; torsion_weight (S, G): the torsion term's weight t (0: off).
+    (Energies are summed per segment, then pairwise by numpy: a running sum
+    over 1e5 Gauss points would lose the small energy changes near rest.)"""
     e_stretch, e_bend = np.zeros(seg.shape[0]), np.zeros(seg.shape[0])
-    _elastic(q, seg, rest, EA, EI, kappa0, tau0, curved, quad.dB, quad.ddB, quad.w, B3,
+    _elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, quad.dB, quad.ddB, quad.w, B3,
              g_stretch, g_bend, e_stretch, e_bend)
     return float(np.sum(e_stretch)), float(np.sum(e_bend))
 
 
 @njit(cache=True)
-def _hessian(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, project):
+def _hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, dB, ddB, w, B3, project):
     S = seg.shape[0]
     out = np.zeros((S, 12, 12))
     H = np.zeros((9, 9))
@@ -142,7 +143,7 @@ def _hessian(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, project
         for g in range(w.shape[0]):
             a, b, d = _local(q, seg, s, g, dB, ddB, B3)
             gausspoint.energy(a, b, d, rest[s, g], EA[s], EI[s], kappa0[s, g], tau0[s, g],
-                              curved[s], w[g], True, project, H)
+                              torsion_weight[s, g], w[g], True, project, H)
             C[0], C[1], C[2] = dB[g], ddB[g], B3
             for j in range(4):
                 for k in range(4):
@@ -153,12 +154,12 @@ def _hessian(q, seg, rest, EA, EI, kappa0, tau0, curved, dB, ddB, w, B3, project
     return out
 
 
-def elastic_hessian(q, seg, rest, EA, EI, kappa0, tau0, curved, quad, project):
+def elastic_hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, quad, project):
     """Per-segment Hessian blocks (S, 12, 12) of the elastic energy with
     respect to the segment's 4 control points (x, y, z each); ``project``:
     positive semi-definite part per Gauss point."""
-    return _hessian(q, seg, rest, EA, EI, kappa0, tau0, curved, quad.dB, quad.ddB, quad.w, B3,
-                    bool(project))
+    return _hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, quad.dB, quad.ddB,
+                    quad.w, B3, bool(project))
 
 
 def gravity_force(seg, rest, line_density, g, quad, n):

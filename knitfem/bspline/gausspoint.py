@@ -6,7 +6,8 @@ b = r'', d = r''' (d is constant on a cubic segment), with kappa = |a x b| /
 
     e = EA/2 (|a|/l - 1)^2 l w                      stretching (l: rest speed)
       + EI/2 (kappa - kappa0)^2 |a| w               bending
-      + EI/2 (tau - tau0)^2 |a| w                   torsion (naturally curved yarns)
+      + t EI/2 (tau - tau0)^2 |a| w                 torsion (naturally curved yarns; t their
+                                                    torsion weight, 0: no torsion term)
 
 with its exact first and second derivatives in (a, b, d).  The bending term
 is expanded as kappa^2 |a| - 2 kappa0 kappa |a| + kappa0^2 |a| = |a x b|^2 |a|^-5
@@ -37,7 +38,7 @@ def _sym(u, v):
 
 
 @njit(cache=True)
-def energy(a, b, d, l, EA, EI, k0, t0, curved, w, hessian, project, H):
+def energy(a, b, d, l, EA, EI, k0, t0, tw, w, hessian, project, H):
     """Energy of one Gauss point and its derivatives with respect to a, b, d:
     returns (e, e_a, e_b, e_d); with ``hessian`` fills H (9, 9) (rows/cols a,
     b, d).  ``project`` replaces H by its positive semi-definite part
@@ -102,16 +103,17 @@ def energy(a, b, d, l, EA, EI, k0, t0, curved, w, hessian, project, H):
                 H[:3, 3:6] += m * (P_ab * Q + np.outer(Q_a, P_b))
                 H[3:6, :3] += m * (P_ab.T * Q + np.outer(P_b, Q_a))
                 H[3:6, 3:6] += m * P_bb * Q
-        if curved and F > 1e-14 * a2 * a2:
-            # (tau - t0)^2 |a|, tau = T / F with T = (a x b) . d
+        if tw != 0.0 and F > 1e-14 * a2 * a2:
+            # tw (tau - t0)^2 |a|, tau = T / F with T = (a x b) . d
+            kt = kb * tw
             T = c @ d
             Tx = np.concatenate((cross(b, d), cross(d, a), c))
             Fx = np.concatenate((F_a, F_b, np.zeros(3)))
             nx = np.concatenate((ah, np.zeros(6)))
             f = T / F - t0
             tx = Tx / F - T * Fx / (F * F)
-            grad = kb * (2.0 * f * tx * na + f * f * nx)
-            e += kb * f * f * na
+            grad = kt * (2.0 * f * tx * na + f * f * nx)
+            e += kt * f * f * na
             e_a += grad[:3]
             e_b += grad[3:6]
             e_d += grad[6:]
@@ -130,7 +132,7 @@ def energy(a, b, d, l, EA, EI, k0, t0, curved, w, hessian, project, H):
                        + 2.0 * T * np.outer(Fx, Fx) / F ** 3)
                 nxy = np.zeros((9, 9))
                 nxy[:3, :3] = (eye - np.outer(ah, ah)) / na
-                H[:, :] += kb * (2.0 * np.outer(tx, tx) * na + 2.0 * f * txy * na
+                H[:, :] += kt * (2.0 * np.outer(tx, tx) * na + 2.0 * f * txy * na
                                  + 2.0 * f * _sym(tx, nx) + f * f * nxy)
     if hessian and project:
         lam, V = np.linalg.eigh(0.5 * (H + H.T))
@@ -158,7 +160,7 @@ def _axpy(alpha, u, v):
 
 
 @njit(cache=True)
-def gradient(a, b, d, l, EA, EI, k0, t0, curved, w):
+def gradient(a, b, d, l, EA, EI, k0, t0, tw, w):
     """:func:`energy` without the Hessian, for 3-tuples a, b, d: returns
     (e, e_a, e_b, e_d) with tuple derivatives."""
     zero = (0.0, 0.0, 0.0)
@@ -191,7 +193,8 @@ def gradient(a, b, d, l, EA, EI, k0, t0, curved, w):
             # P_a = F_a / P (F_a is half of dF/da), Q_a = -2 a / a2^2
             e_a = _axpy(m * Q / P, F_a, _axpy(-2.0 * m * P / (a2 * a2), a, e_a))
             e_b = _axpy(m * Q / P, F_b, e_b)
-    if curved and F > 1e-14 * a2 * a2:
+    if tw != 0.0 and F > 1e-14 * a2 * a2:
+        kb *= tw
         T = _dot(c, d)
         f = T / F - t0
         # tau_x = T_x / F - T F_x / F^2, T_a = b x d, T_b = d x a, T_d = c, F_x = 2 (F_a, F_b, 0)

@@ -38,6 +38,28 @@ class _Clamp:
     tangent: np.ndarray
 
 
+def torsion_weights(kappa0, ds, bent=False):
+    """Weights (S, G) of a curved yarn's torsion term at its Gauss points:
+    1, or with ``bent`` min(1, (kappa0 / kappa_mean)^2), kappa_mean its
+    rest curvature averaged over its length (ds (S, G): arclength per Gauss
+    point).
+
+    A yarn without a material frame has torsion only as the turning rate of
+    its binormal, defined only as far as the yarn is bent: turning the
+    bending plane of a rod bent to kappa0 costs ~ EI kappa0^2 per radian^2,
+    nothing where it is straight.  Unweighted, the term made the knitted
+    yarn's less bent stretches up to 1000 x stiffer than the rest (torsion
+    is the third derivative over |r' x r''|^2): with FIRE's Gershgorin
+    masses, 28 % of the 10 x 35's knit control points were > 10 x heavier
+    than the median, none with the weights (2026-12-08).  A helix (constant
+    curvature) keeps weight ~1."""
+    kappa0 = np.asarray(kappa0, float)
+    if not bent:
+        return np.ones_like(kappa0)
+    mean = float(np.sum(kappa0 * ds) / np.sum(ds))
+    return np.minimum(1.0, (kappa0 / mean) ** 2) if mean > 0 else np.ones_like(kappa0)
+
+
 class BSplineModel:
     """Yarns + clamps/fixed points + gravity, dead loads and ties at curve
     points + contact, as an energy of the reduced coordinates y.
@@ -76,6 +98,11 @@ class BSplineModel:
             energy.torsion(y.control, curve.segment_indices(y.segments, y.closed), self.quad)
             if y.curved else np.zeros((y.segments, len(self.quad.w))) for y in self.yarns])
         self.curved = np.concatenate([np.full(y.segments, y.curved) for y in self.yarns])
+        bounds = np.cumsum([0] + [y.segments for y in self.yarns])
+        self.torsion_weight = np.concatenate([
+            torsion_weights(self.kappa0[i:j], speed[i:j] * self.quad.w, y.bent_torsion)
+            if y.curved else np.zeros((j - i, len(self.quad.w)))
+            for y, i, j in zip(self.yarns, bounds[:-1], bounds[1:])])
         self.contact = contact
         if contact is not None and not isinstance(contact, ContactLaw):
             raise ValueError("contact must be a ContactLaw or None")
@@ -244,7 +271,7 @@ class BSplineModel:
         q = np.ascontiguousarray(q, dtype=float)
         g_len, g_bend = np.zeros_like(q), np.zeros_like(q)
         E_len, E_bend = energy.elastic(q, self.seg, self.speed, self.EA, self.EI, self.kappa0,
-                                       self.tau0, self.curved, self.quad, g_len, g_bend)
+                                       self.tau0, self.torsion_weight, self.quad, g_len, g_bend)
         total, grad = E_len + E_bend, g_len + g_bend
         ref = np.linalg.norm(g_len) + np.linalg.norm(g_bend)
         split = {"stretching": E_len, "bending": E_bend, "contact": 0.0, "ties": 0.0,
@@ -294,7 +321,7 @@ class BSplineModel:
         (a convex model of the energy, for Newton steps far from equilibrium)."""
         q = np.ascontiguousarray(q, dtype=float)
         blocks = energy.elastic_hessian(q, self.seg, self.speed, self.EA, self.EI, self.kappa0,
-                                        self.tau0, self.curved, self.quad, project)
+                                        self.tau0, self.torsion_weight, self.quad, project)
         dof = (3 * self.seg[:, :, None] + np.arange(3)[None, None, :]).reshape(-1, 12)
         rows = np.broadcast_to(dof[:, :, None], blocks.shape).ravel()
         cols = np.broadcast_to(dof[:, None, :], blocks.shape).ravel()
