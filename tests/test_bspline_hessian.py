@@ -4,6 +4,7 @@ import pytest
 
 from knitfem.bspline import BSplineModel, ContactLaw, Yarn, relax_newton
 from knitfem.bspline.energy import curvature
+from knitfem.bspline.model import torsion_weights
 
 
 def helix_pair(curved=False, form="kaldor"):
@@ -36,6 +37,50 @@ def test_hessian_matches_central_differences_of_the_gradient(rng, curved, form):
         fd = (model.energy(q + e * v)[1] - model.energy(q - e * v)[1]) / (2 * e)
         Hv = (H @ v.ravel()).reshape(-1, 3)
         assert np.linalg.norm(fd - Hv) < 1e-6 * np.linalg.norm(Hv)
+
+
+def test_weighted_torsion_gradient_and_hessian_match_central_differences(rng):
+    """Torsion weights other than 1 (a set yarn's, :func:`torsion_weights`)
+    scale the torsion term's energy, gradient and Hessian alike: the same
+    1e-6 checks with random weights in [0, 1]."""
+    model = helix_pair(curved=True)
+    S = model.yarns[0].segments
+    model.torsion_weight[:S] = rng.uniform(0.0, 1.0, size=model.torsion_weight[:S].shape)
+    q = model._initial() + 0.05 * rng.normal(size=(model.n, 3))
+    E, g, _ = model.energy(q)
+    H = model.hessian(q)
+    for _ in range(3):
+        v = rng.normal(size=q.shape)
+        e = 1e-6
+        fd = (model.energy(q + e * v)[0] - model.energy(q - e * v)[0]) / (2 * e)
+        assert abs(fd - np.sum(g * v)) < 1e-6 * max(1.0, abs(fd))
+        fd = (model.energy(q + e * v)[1] - model.energy(q - e * v)[1]) / (2 * e)
+        Hv = (H @ v.ravel()).reshape(-1, 3)
+        assert np.linalg.norm(fd - Hv) < 1e-6 * np.linalg.norm(Hv)
+    # and the weight is the torsion term's only: off (0) leaves bending and stretching
+    bent = model.energy_parts(q)["bending"]
+    model.torsion_weight[:S] = 0.0
+    assert model.energy_parts(q)["bending"] < bent
+
+
+def test_torsion_weights_follow_the_rest_bending():
+    """min(1, (kappa0 / mean)^2): 1 on a helix (constant curvature), small
+    where a curve is nearly straight, 1 everywhere without ``bent``."""
+    s = np.linspace(0, 4 * np.pi, 300)
+    helix = Yarn.through(np.stack([np.cos(s), np.sin(s), 0.3 * s], axis=1), 24, 50.0, 2.0,
+                         natural="curved", bent_torsion=True)
+    model = BSplineModel([helix])
+    assert model.torsion_weight.min() > 0.97 and model.torsion_weight.max() == 1.0
+    # a wave: straight-ish at its inflections (kappa0 -> 0), bent at its crests
+    x = np.linspace(0, 4 * np.pi, 400)
+    wave = np.stack([x, np.sin(x), 0.2 * np.cos(0.5 * x)], axis=1)
+    k0 = BSplineModel([Yarn.through(wave, 32, 50.0, 2.0, natural="curved")]).kappa0
+    ds = np.ones_like(k0)
+    w = torsion_weights(k0, ds, bent=True)
+    mean = k0.mean()
+    assert np.allclose(w, np.minimum(1.0, (k0 / mean) ** 2))
+    assert w[k0 < 0.2 * mean].max() < 0.04 and w[k0 >= mean].min() == 1.0
+    assert np.array_equal(torsion_weights(k0, ds), np.ones_like(k0))
 
 
 @pytest.mark.parametrize("form", ["kaldor", "smooth"])
