@@ -4,7 +4,7 @@ import pytest
 
 from knitfem.bspline import BSplineModel, ContactLaw, Yarn, relax_newton
 from knitfem.bspline.energy import curvature
-from knitfem.bspline.model import torsion_weights
+from knitfem.bspline.model import set_yarn_terms
 
 
 def helix_pair(curved=False, form="kaldor"):
@@ -39,16 +39,24 @@ def test_hessian_matches_central_differences_of_the_gradient(rng, curved, form):
         assert np.linalg.norm(fd - Hv) < 1e-6 * np.linalg.norm(Hv)
 
 
-def test_weighted_torsion_gradient_and_hessian_match_central_differences(rng):
-    """Torsion weights other than 1 (a set yarn's, :func:`torsion_weights`)
-    scale the torsion term's energy, gradient and Hessian alike: the same
-    1e-6 checks with random weights in [0, 1]."""
-    model = helix_pair(curved=True)
-    S = model.yarns[0].segments
-    model.torsion_weight[:S] = rng.uniform(0.0, 1.0, size=model.torsion_weight[:S].shape)
+def set_wave(segments=32):
+    """A yarn set in a wave with inflections (its curvature 0 at two points
+    and small around them), as the knitted loop is."""
+    x = np.linspace(0, 4 * np.pi, 400)
+    wave = np.stack([x, np.sin(x), 0.2 * np.cos(0.5 * x)], axis=1)
+    return BSplineModel([Yarn.through(wave, segments, 50.0, 2.0, natural="curved",
+                                      set_yarn=True)])
+
+
+def test_set_yarn_gradient_and_hessian_match_central_differences(rng):
+    """The smooth forms of a set yarn (regularised curvature, kappa^2 tau)
+    against central differences: gradient 1e-6, Hessian 1e-6 relative."""
+    model = set_wave()
+    assert model.curvature_eps.min() > 0 and model.torsion_weight.min() > 0
     q = model._initial() + 0.05 * rng.normal(size=(model.n, 3))
     E, g, _ = model.energy(q)
     H = model.hessian(q)
+    assert abs(H - H.T).max() < 1e-10 * abs(H).max()
     for _ in range(3):
         v = rng.normal(size=q.shape)
         e = 1e-6
@@ -57,30 +65,45 @@ def test_weighted_torsion_gradient_and_hessian_match_central_differences(rng):
         fd = (model.energy(q + e * v)[1] - model.energy(q - e * v)[1]) / (2 * e)
         Hv = (H @ v.ravel()).reshape(-1, 3)
         assert np.linalg.norm(fd - Hv) < 1e-6 * np.linalg.norm(Hv)
-    # and the weight is the torsion term's only: off (0) leaves bending and stretching
-    bent = model.energy_parts(q)["bending"]
-    model.torsion_weight[:S] = 0.0
-    assert model.energy_parts(q)["bending"] < bent
 
 
-def test_torsion_weights_follow_the_rest_bending():
-    """min(1, (kappa0 / mean)^2): 1 on a helix (constant curvature), small
-    where a curve is nearly straight, 1 everywhere without ``bent``."""
-    s = np.linspace(0, 4 * np.pi, 300)
-    helix = Yarn.through(np.stack([np.cos(s), np.sin(s), 0.3 * s], axis=1), 24, 50.0, 2.0,
-                         natural="curved", bent_torsion=True)
-    model = BSplineModel([helix])
-    assert model.torsion_weight.min() > 0.97 and model.torsion_weight.max() == 1.0
-    # a wave: straight-ish at its inflections (kappa0 -> 0), bent at its crests
-    x = np.linspace(0, 4 * np.pi, 400)
-    wave = np.stack([x, np.sin(x), 0.2 * np.cos(0.5 * x)], axis=1)
-    k0 = BSplineModel([Yarn.through(wave, 32, 50.0, 2.0, natural="curved")]).kappa0
+def test_set_yarn_is_at_rest_in_its_shape_and_smooth_where_it_straightens(rng):
+    """Its shape has no energy and no force (round-off); pulled straight, its
+    force is continuous across the straight line (the change of the gradient
+    between +-h shrinks with h), where the exact form's jumps (the cone of
+    the unsigned curvature at kappa = 0: O(1) whatever h)."""
+    model = set_wave()
+    q0 = model._initial()
+    E, g, ref = model.energy(q0)
+    assert abs(E) < 1e-12 and np.linalg.norm(g) <= model.roundoff
+    line = np.stack([np.linspace(0, 4 * np.pi, model.n), np.zeros(model.n),
+                     np.zeros(model.n)], axis=1)
+    v = np.zeros_like(line)
+    v[:, 1] = rng.normal(size=model.n)
+
+    def jump(h):
+        return np.linalg.norm(model.energy(line + h * v)[1] - model.energy(line - h * v)[1])
+
+    smooth = [jump(h) for h in (1e-4, 1e-6)]
+    assert smooth[1] < 0.02 * smooth[0]                    # O(h): ~100 x smaller
+    model.curvature_eps[:] = 0.0                           # the exact form
+    model.torsion_weight[:] = 0.0
+    model.torsion_rest[:] = 0.0
+    exact = [jump(h) for h in (1e-4, 1e-6)]
+    assert exact[1] > 0.5 * exact[0] and exact[1] > 1e3 * smooth[1]
+
+
+def test_set_yarn_terms_follow_the_rest_bending():
+    """weight 1 / max(kappa0, mean)^4, ep 0.1 mean; a straight rest shape is
+    refused (a set yarn needs a bent one)."""
+    k0 = np.array([[0.0, 0.5, 1.0, 2.0]])
     ds = np.ones_like(k0)
-    w = torsion_weights(k0, ds, bent=True)
+    weight, ep = set_yarn_terms(k0, ds)
     mean = k0.mean()
-    assert np.allclose(w, np.minimum(1.0, (k0 / mean) ** 2))
-    assert w[k0 < 0.2 * mean].max() < 0.04 and w[k0 >= mean].min() == 1.0
-    assert np.array_equal(torsion_weights(k0, ds), np.ones_like(k0))
+    assert np.allclose(weight, 1.0 / np.maximum(k0, mean) ** 4)
+    assert np.allclose(ep, 0.1 * mean)
+    with pytest.raises(ValueError, match="bent rest shape"):
+        set_yarn_terms(np.zeros((2, 4)), np.ones((2, 4)))
 
 
 @pytest.mark.parametrize("form", ["kaldor", "smooth"])

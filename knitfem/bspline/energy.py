@@ -72,6 +72,16 @@ def torsion(q, seg, quad):
     return np.where(straight, 0.0, np.einsum("sgk,sgk->sg", c, d) / np.where(straight, 1.0, F))
 
 
+def curvature_torsion(q, seg, quad):
+    """kappa^2 tau = (a x b) . d / |a|^6 (d the third derivative) at every
+    Gauss point (S, G): the torsion measure of a set yarn
+    (:mod:`.gausspoint`), smooth where the curve straightens."""
+    a, b = derivatives(q, seg, quad)
+    d = np.broadcast_to(np.einsum("j,sjk->sk", B3, q[seg])[:, None, :], a.shape)
+    return (np.einsum("sgk,sgk->sg", np.cross(a, b), d)
+            / np.einsum("sgk,sgk->sg", a, a) ** 3)
+
+
 @njit(cache=True)
 def _local(q, seg, s, g, dB, ddB, B3):
     """a = r', b = r'', d = r''' of segment s at Gauss point g."""
@@ -94,7 +104,7 @@ def _combine(c, q, i0, i1, i2, i3):
 
 
 @njit(cache=True)
-def _elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, dB, ddB, w, B3, g_stretch,
+def _elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, eps, dB, ddB, w, B3, g_stretch,
              g_bend, e_stretch, e_bend):
     for s in range(seg.shape[0]):
         i0, i1, i2, i3 = seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3]
@@ -103,14 +113,14 @@ def _elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, dB, ddB, w, B3,
             a = _combine(dB[g], q, i0, i1, i2, i3)
             b = _combine(ddB[g], q, i0, i1, i2, i3)
             e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], EA[s], 0.0, 0.0, 0.0,
-                                                   0.0, w[g])
+                                                   0.0, 0.0, w[g])
             e_stretch[s] += e
             for j in range(4):
                 for k in range(3):
                     g_stretch[seg[s, j], k] += dB[g, j] * e_a[k]
             e, e_a, e_b, e_d = gausspoint.gradient(a, b, d, rest[s, g], 0.0, EI[s],
                                                    kappa0[s, g], tau0[s, g],
-                                                   torsion_weight[s, g], w[g])
+                                                   torsion_weight[s, g], eps[s, g], w[g])
             e_bend[s] += e
             for j in range(4):
                 for k in range(3):
@@ -118,23 +128,25 @@ def _elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, dB, ddB, w, B3,
                                              + B3[j] * e_d[k])
 
 
-def elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, quad, g_stretch, g_bend):
+def elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, eps, quad, g_stretch, g_bend):
     """Stretching and bending energies (returned separately); their gradients
     are added to ``g_stretch`` and ``g_bend`` (n, 3).
 
     q (n, 3) control points; seg (S, 4); rest (S, G) rest speeds |r'| at the
     Gauss points; EA, EI (S,); kappa0, tau0 (S, G) natural curvature and
-    torsion; torsion_weight (S, G): the torsion term's weight t (0: off).
+    torsion; torsion_weight (S, G): the torsion term's weight t (0: off);
+    eps (S, G): curvature regularisation (0: exact; > 0: the smooth form of a
+    set yarn, :mod:`.gausspoint`, with tau0 holding kappa0^2 tau0).
     (Energies are summed per segment, then pairwise by numpy: a running sum
     over 1e5 Gauss points would lose the small energy changes near rest.)"""
     e_stretch, e_bend = np.zeros(seg.shape[0]), np.zeros(seg.shape[0])
-    _elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, quad.dB, quad.ddB, quad.w, B3,
-             g_stretch, g_bend, e_stretch, e_bend)
+    _elastic(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, eps, quad.dB, quad.ddB, quad.w,
+             B3, g_stretch, g_bend, e_stretch, e_bend)
     return float(np.sum(e_stretch)), float(np.sum(e_bend))
 
 
 @njit(cache=True)
-def _hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, dB, ddB, w, B3, project):
+def _hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, eps, dB, ddB, w, B3, project):
     S = seg.shape[0]
     out = np.zeros((S, 12, 12))
     H = np.zeros((9, 9))
@@ -143,7 +155,7 @@ def _hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, dB, ddB, w, B3,
         for g in range(w.shape[0]):
             a, b, d = _local(q, seg, s, g, dB, ddB, B3)
             gausspoint.energy(a, b, d, rest[s, g], EA[s], EI[s], kappa0[s, g], tau0[s, g],
-                              torsion_weight[s, g], w[g], True, project, H)
+                              torsion_weight[s, g], eps[s, g], w[g], True, project, H)
             C[0], C[1], C[2] = dB[g], ddB[g], B3
             for j in range(4):
                 for k in range(4):
@@ -154,11 +166,11 @@ def _hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, dB, ddB, w, B3,
     return out
 
 
-def elastic_hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, quad, project):
+def elastic_hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, eps, quad, project):
     """Per-segment Hessian blocks (S, 12, 12) of the elastic energy with
     respect to the segment's 4 control points (x, y, z each); ``project``:
     positive semi-definite part per Gauss point."""
-    return _hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, quad.dB, quad.ddB,
+    return _hessian(q, seg, rest, EA, EI, kappa0, tau0, torsion_weight, eps, quad.dB, quad.ddB,
                     quad.w, B3, bool(project))
 
 

@@ -12,6 +12,19 @@ b = r'', d = r''' (d is constant on a cubic segment), with kappa = |a x b| /
 with its exact first and second derivatives in (a, b, d).  The bending term
 is expanded as kappa^2 |a| - 2 kappa0 kappa |a| + kappa0^2 |a| = |a x b|^2 |a|^-5
 - 2 kappa0 |a x b| |a|^-2 + kappa0^2 |a|, each a product of simple factors.
+
+A yarn set in a shape with inflections (the knitted loop) needs a smooth
+form, selected by a curvature regularisation ep > 0 (ep = 0: the form
+above, exact):
+
+    bending  EI/2 (kappa_ep - kappa0_ep)^2 |a| w,  kappa_ep = sqrt(kappa^2 + ep^2)
+    torsion  t EI/2 (kappa^2 tau - t0)^2 |a| w,    kappa^2 tau = (a x b) . d / |a|^6
+
+The exact bending term has a cone at kappa = 0 when kappa0 > 0 (its force
+does not vanish there: relaxation chatters across it), and tau = T / |a x
+b|^2 is singular where the yarn straightens; both forms above are smooth
+everywhere.  t0 is then the rest kappa0^2 tau0 and t carries the scale
+(:func:`knitfem.bspline.model.set_yarn_terms`).
 """
 import numpy as np
 from numba import njit
@@ -38,7 +51,7 @@ def _sym(u, v):
 
 
 @njit(cache=True)
-def energy(a, b, d, l, EA, EI, k0, t0, tw, w, hessian, project, H):
+def energy(a, b, d, l, EA, EI, k0, t0, tw, ep, w, hessian, project, H):
     """Energy of one Gauss point and its derivatives with respect to a, b, d:
     returns (e, e_a, e_b, e_d); with ``hessian`` fills H (9, 9) (rows/cols a,
     b, d).  ``project`` replaces H by its positive semi-definite part
@@ -77,38 +90,53 @@ def energy(a, b, d, l, EA, EI, k0, t0, tw, w, hessian, project, H):
             H[:3, 3:6] += kb * (F_ab * G + np.outer(G_a, F_b))
             H[3:6, :3] += kb * (F_ab.T * G + np.outer(F_b, G_a))
             H[3:6, 3:6] += kb * F_bb * G
-        if k0 != 0.0:
-            # kappa0^2 |a|
-            e += kb * k0 * k0 * na
-            e_a += kb * k0 * k0 * ah
+        ep2 = ep * ep
+        if k0 != 0.0 or ep != 0.0:
+            # (kappa0^2 + 2 ep^2) |a|: kappa0_ep^2 |a| and the ep^2 |a| of kappa_ep^2 |a|
+            k2 = k0 * k0 + 2.0 * ep2
+            e += kb * k2 * na
+            e_a += kb * k2 * ah
             if hessian:
-                H[:3, :3] += kb * k0 * k0 * (eye - np.outer(ah, ah)) / na
-        P = np.sqrt(F)
+                H[:3, :3] += kb * k2 * (eye - np.outer(ah, ah)) / na
+        # Fe = |a x b|^2 + ep^2 |a|^6 (= F when ep = 0)
+        Fe = F + ep2 * a2 * a2 * a2
+        Fe_a = F_a + 6.0 * ep2 * a2 * a2 * a
+        if hessian and ep != 0.0:
+            Fe_aa = F_aa + ep2 * (6.0 * a2 * a2 * eye + 24.0 * a2 * np.outer(a, a))
+        elif hessian:
+            Fe_aa = F_aa
+        P = np.sqrt(Fe)
         if k0 != 0.0 and P > 1e-14 * a2:
             # -2 kappa0 kappa |a| = -2 kappa0 P Q, P = |a x b|, Q = |a|^-2 (skipped at the
-            # cone tip P = 0, where the yarn is straight: a maximum of -P)
+            # cone tip P = 0, where the yarn is straight: a maximum of -P; with ep > 0
+            # kappa0 -> kappa0_ep, P = sqrt(Fe) and there is no tip)
             Q = 1.0 / a2
-            P_a, P_b = F_a / (2.0 * P), F_b / (2.0 * P)
+            P_a, P_b = Fe_a / (2.0 * P), F_b / (2.0 * P)
             Q_a = -2.0 * a / (a2 * a2)
-            m = -2.0 * kb * k0
+            m = -2.0 * kb * np.sqrt(k0 * k0 + ep2)
             e += m * P * Q
             e_a += m * (P_a * Q + P * Q_a)
             e_b += m * P_b * Q
             if hessian:
-                P_aa = F_aa / (2.0 * P) - np.outer(F_a, F_a) / (4.0 * P ** 3)
-                P_ab = F_ab / (2.0 * P) - np.outer(F_a, F_b) / (4.0 * P ** 3)
+                P_aa = Fe_aa / (2.0 * P) - np.outer(Fe_a, Fe_a) / (4.0 * P ** 3)
+                P_ab = F_ab / (2.0 * P) - np.outer(Fe_a, F_b) / (4.0 * P ** 3)
                 P_bb = F_bb / (2.0 * P) - np.outer(F_b, F_b) / (4.0 * P ** 3)
                 Q_aa = -2.0 * eye / (a2 * a2) + 8.0 * np.outer(a, a) / (a2 * a2 * a2)
                 H[:3, :3] += m * (P_aa * Q + _sym(P_a, Q_a) + P * Q_aa)
                 H[:3, 3:6] += m * (P_ab * Q + np.outer(Q_a, P_b))
                 H[3:6, :3] += m * (P_ab.T * Q + np.outer(P_b, Q_a))
                 H[3:6, 3:6] += m * P_bb * Q
-        if tw != 0.0 and F > 1e-14 * a2 * a2:
-            # tw (tau - t0)^2 |a|, tau = T / F with T = (a x b) . d
+        if tw != 0.0 and (ep != 0.0 or F > 1e-14 * a2 * a2):
+            # tw (T / D - t0)^2 |a|, T = (a x b) . d: D = F (tau) or with ep > 0 |a|^6
+            # (kappa^2 tau, smooth)
             kt = kb * tw
             T = c @ d
             Tx = np.concatenate((cross(b, d), cross(d, a), c))
-            Fx = np.concatenate((F_a, F_b, np.zeros(3)))
+            if ep != 0.0:
+                F = a2 * a2 * a2
+                Fx = np.concatenate((6.0 * a2 * a2 * a, np.zeros(6)))
+            else:
+                Fx = np.concatenate((F_a, F_b, np.zeros(3)))
             nx = np.concatenate((ah, np.zeros(6)))
             f = T / F - t0
             tx = Tx / F - T * Fx / (F * F)
@@ -124,10 +152,13 @@ def energy(a, b, d, l, EA, EI, k0, t0, tw, w, hessian, project, H):
                 Txy[3:6, 6:] = -skew(a)
                 Txy += Txy.T
                 Fxy = np.zeros((9, 9))
-                Fxy[:3, :3] = F_aa
-                Fxy[:3, 3:6] = F_ab
-                Fxy[3:6, :3] = F_ab.T
-                Fxy[3:6, 3:6] = F_bb
+                if ep != 0.0:
+                    Fxy[:3, :3] = 6.0 * a2 * a2 * eye + 24.0 * a2 * np.outer(a, a)
+                else:
+                    Fxy[:3, :3] = F_aa
+                    Fxy[:3, 3:6] = F_ab
+                    Fxy[3:6, :3] = F_ab.T
+                    Fxy[3:6, 3:6] = F_bb
                 txy = (Txy / F - _sym(Tx, Fx) / (F * F) - T * Fxy / (F * F)
                        + 2.0 * T * np.outer(Fx, Fx) / F ** 3)
                 nxy = np.zeros((9, 9))
@@ -160,7 +191,7 @@ def _axpy(alpha, u, v):
 
 
 @njit(cache=True)
-def gradient(a, b, d, l, EA, EI, k0, t0, tw, w):
+def gradient(a, b, d, l, EA, EI, k0, t0, tw, ep, w):
     """:func:`energy` without the Hessian, for 3-tuples a, b, d: returns
     (e, e_a, e_b, e_d) with tuple derivatives."""
     zero = (0.0, 0.0, 0.0)
@@ -182,18 +213,34 @@ def gradient(a, b, d, l, EA, EI, k0, t0, tw, w):
     e += kb * F * G
     e_a = _axpy(2.0 * kb * G, F_a, _axpy(-5.0 * kb * F * a2 ** -3.5, a, e_a))
     e_b = _axpy(2.0 * kb * G, F_b, e_b)
+    ep2 = ep * ep
+    if k0 != 0.0 or ep != 0.0:
+        k2 = k0 * k0 + 2.0 * ep2
+        e += kb * k2 * na
+        e_a = _axpy(kb * k2 / na, a, e_a)
     if k0 != 0.0:
-        e += kb * k0 * k0 * na
-        e_a = _axpy(kb * k0 * k0 / na, a, e_a)
-        P = np.sqrt(F)
+        P = np.sqrt(F + ep2 * a2 * a2 * a2)
         if P > 1e-14 * a2:
-            m = -2.0 * kb * k0
+            m = -2.0 * kb * np.sqrt(k0 * k0 + ep2)
             Q = 1.0 / a2
             e += m * P * Q
-            # P_a = F_a / P (F_a is half of dF/da), Q_a = -2 a / a2^2
-            e_a = _axpy(m * Q / P, F_a, _axpy(-2.0 * m * P / (a2 * a2), a, e_a))
+            # P_a = Fe_a / P (Fe_a: half of dFe/da = F_a + 3 ep^2 a2^2 a), Q_a = -2 a / a2^2
+            e_a = _axpy(m * Q / P, F_a, _axpy(-2.0 * m * P / (a2 * a2)
+                                              + 3.0 * m * Q / P * ep2 * a2 * a2, a, e_a))
             e_b = _axpy(m * Q / P, F_b, e_b)
-    if tw != 0.0 and F > 1e-14 * a2 * a2:
+    if tw != 0.0 and ep != 0.0:
+        kb *= tw
+        T = _dot(c, d)
+        D = a2 * a2 * a2
+        f = T / D - t0
+        # (T / D)_x = T_x / D - T D_x / D^2, D_a = 6 a2^2 a
+        k = 2.0 * kb * f * na
+        e += kb * f * f * na
+        e_a = _axpy(k / D, _x(b, d), _axpy(-6.0 * k * T * a2 * a2 / (D * D)
+                                           + kb * f * f / na, a, e_a))
+        e_b = _axpy(k / D, _x(d, a), e_b)
+        e_d = _axpy(k / D, c, e_d)
+    elif tw != 0.0 and F > 1e-14 * a2 * a2:
         kb *= tw
         T = _dot(c, d)
         f = T / F - t0

@@ -38,26 +38,35 @@ class _Clamp:
     tangent: np.ndarray
 
 
-def torsion_weights(kappa0, ds, bent=False):
-    """Weights (S, G) of a curved yarn's torsion term at its Gauss points:
-    1, or with ``bent`` min(1, (kappa0 / kappa_mean)^2), kappa_mean its
-    rest curvature averaged over its length (ds (S, G): arclength per Gauss
-    point).
+SET_YARN_EPS = 0.1     # curvature regularisation of a set yarn, x its mean rest curvature
 
-    A yarn without a material frame has torsion only as the turning rate of
-    its binormal, defined only as far as the yarn is bent: turning the
-    bending plane of a rod bent to kappa0 costs ~ EI kappa0^2 per radian^2,
-    nothing where it is straight.  Unweighted, the term made the knitted
-    yarn's less bent stretches up to 1000 x stiffer than the rest (torsion
-    is the third derivative over |r' x r''|^2): with FIRE's Gershgorin
-    masses, 28 % of the 10 x 35's knit control points were > 10 x heavier
-    than the median, none with the weights (2026-12-08).  A helix (constant
-    curvature) keeps weight ~1."""
+
+def set_yarn_terms(kappa0, ds):
+    """The scales of a yarn set in its initial shape, its bending and torsion
+    in their smooth forms (:mod:`.gausspoint`, ep > 0): (torsion weight, ep),
+    each (S, G).  kappa_mean: the rest curvature averaged over the yarn's
+    length (ds (S, G): arclength per Gauss point); ep = 0.1 kappa_mean;
+    weight 1 / max(kappa0, kappa_mean)^4, so that near rest the torsion
+    term is min(1, (kappa0 / kappa_mean)^4) EI/2 (tau - tau0)^2 (+ its
+    coupling to the curvature).
+
+    Why: a yarn without a material frame has torsion only as the turning
+    rate of its binormal, defined only as far as it is bent (turning the
+    bending plane of a rod bent to kappa0 costs ~ EI kappa0^2 per radian^2);
+    kappa^2 tau = (a x b) . d / |a|^6 (a, b, d: the curve's first three
+    derivatives) is smooth where tau is not.
+    The exact forms failed on the knitted yarn (2026-12-08): unweighted
+    torsion made its less bent stretches up to 1000 x stiffer (28 % of the
+    10 x 35's knit control points > 10 x the median Gershgorin mass, FIRE's
+    step), and the curvature's cone at kappa = 0 held the largest forces of
+    a 4 x 4 that FIRE could not bring below residual 0.99 in 300 s: Gauss
+    points with kappa 1e-5 against kappa0 0.05-0.1."""
     kappa0 = np.asarray(kappa0, float)
-    if not bent:
-        return np.ones_like(kappa0)
     mean = float(np.sum(kappa0 * ds) / np.sum(ds))
-    return np.minimum(1.0, (kappa0 / mean) ** 2) if mean > 0 else np.ones_like(kappa0)
+    if not mean > 0:
+        raise ValueError("a set yarn needs a bent rest shape (its mean curvature is 0)")
+    weight = 1.0 / np.maximum(kappa0, mean) ** 4
+    return weight, np.full_like(kappa0, SET_YARN_EPS * mean)
 
 
 class BSplineModel:
@@ -98,11 +107,21 @@ class BSplineModel:
             energy.torsion(y.control, curve.segment_indices(y.segments, y.closed), self.quad)
             if y.curved else np.zeros((y.segments, len(self.quad.w))) for y in self.yarns])
         self.curved = np.concatenate([np.full(y.segments, y.curved) for y in self.yarns])
+        # torsion weight, curvature regularisation and the torsion measure's rest value
+        # per Gauss point: 1, 0, tau0 on a curved yarn, the smooth forms on a set one
+        G = len(self.quad.w)
+        self.torsion_weight = np.zeros((len(self.curved), G))
+        self.curvature_eps = np.zeros((len(self.curved), G))
+        self.torsion_rest = self.tau0.copy()
         bounds = np.cumsum([0] + [y.segments for y in self.yarns])
-        self.torsion_weight = np.concatenate([
-            torsion_weights(self.kappa0[i:j], speed[i:j] * self.quad.w, y.bent_torsion)
-            if y.curved else np.zeros((j - i, len(self.quad.w)))
-            for y, i, j in zip(self.yarns, bounds[:-1], bounds[1:])])
+        for y, i, j in zip(self.yarns, bounds[:-1], bounds[1:]):
+            if y.set_yarn:
+                self.torsion_weight[i:j], self.curvature_eps[i:j] = set_yarn_terms(
+                    self.kappa0[i:j], speed[i:j] * self.quad.w)
+                self.torsion_rest[i:j] = energy.curvature_torsion(
+                    y.control, curve.segment_indices(y.segments, y.closed), self.quad)
+            elif y.curved:
+                self.torsion_weight[i:j] = 1.0
         self.contact = contact
         if contact is not None and not isinstance(contact, ContactLaw):
             raise ValueError("contact must be a ContactLaw or None")
@@ -271,7 +290,8 @@ class BSplineModel:
         q = np.ascontiguousarray(q, dtype=float)
         g_len, g_bend = np.zeros_like(q), np.zeros_like(q)
         E_len, E_bend = energy.elastic(q, self.seg, self.speed, self.EA, self.EI, self.kappa0,
-                                       self.tau0, self.torsion_weight, self.quad, g_len, g_bend)
+                                       self.torsion_rest, self.torsion_weight,
+                                       self.curvature_eps, self.quad, g_len, g_bend)
         total, grad = E_len + E_bend, g_len + g_bend
         ref = np.linalg.norm(g_len) + np.linalg.norm(g_bend)
         split = {"stretching": E_len, "bending": E_bend, "contact": 0.0, "ties": 0.0,
@@ -321,7 +341,8 @@ class BSplineModel:
         (a convex model of the energy, for Newton steps far from equilibrium)."""
         q = np.ascontiguousarray(q, dtype=float)
         blocks = energy.elastic_hessian(q, self.seg, self.speed, self.EA, self.EI, self.kappa0,
-                                        self.tau0, self.torsion_weight, self.quad, project)
+                                        self.torsion_rest, self.torsion_weight,
+                                        self.curvature_eps, self.quad, project)
         dof = (3 * self.seg[:, :, None] + np.arange(3)[None, None, :]).reshape(-1, 12)
         rows = np.broadcast_to(dof[:, :, None], blocks.shape).ravel()
         cols = np.broadcast_to(dof[:, None, :], blocks.shape).ravel()

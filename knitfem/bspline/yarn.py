@@ -31,9 +31,9 @@ class Yarn:
     curve (else it is naturally straight); shaped: its natural parametric
     speed too (every point at its initial length, not only every segment);
     self_contact: whether its own samples repel each other (the paper leaves
-    it out for the bind-off); bent_torsion: the torsion term of a curved yarn
-    weighted by (kappa0 / mean kappa0)^2, capped at 1 (see
-    :func:`knitfem.bspline.model.torsion_weights`)."""
+    it out for the bind-off); set_yarn: a curved yarn whose shape has
+    inflections (the knitted loop), its bending and torsion in their smooth
+    forms (:func:`knitfem.bspline.model.set_yarn_terms`)."""
     control: np.ndarray
     rest: np.ndarray
     EA: float
@@ -45,7 +45,7 @@ class Yarn:
     curved: bool = False
     self_contact: bool = True
     shaped: bool = False
-    bent_torsion: bool = False
+    set_yarn: bool = False
 
     def __post_init__(self):
         self.control = np.asarray(self.control, dtype=float)

@@ -237,9 +237,9 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
              "rtol": float(rtol), "constants": asdict(constants)}
     if knit_natural != "straight":          # the scenes stored before it existed: straight
         scene["knit_natural"] = knit_natural
-        # its torsion weighted by its bending since 2026-12-08 (model.torsion_weights):
-        # a checkpoint of the unweighted yarn is refused by name, not resumed
-        scene["knit_torsion"] = "bent"
+        # its bending and torsion in smooth forms since 2026-12-08 (model.set_yarn_terms):
+        # a checkpoint of the exact forms is refused by name, not resumed
+        scene["knit_forms"] = "smooth"
     monitor = Trace(bs) if trace else None
     name = name or f"bspline_{nw}x{nc}"
     run = _Checkpoints(out if checkpoint else None, name, method, resume, scene)

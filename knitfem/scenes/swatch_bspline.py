@@ -166,8 +166,8 @@ def bspline_swatch(n_wale, n_course, *, w=4.0, c=3.0, radius=0.4, segments_per_l
     segments per loop length of yarn (>= 8).  knit_natural: "straight" (the
     paper's yarn) or "knitted" (the knit yarn's natural curvature and torsion
     are those of the knitted shape, so alpha = 0 is at rest; a yarn set by the
-    knitting.  Its torsion term is weighted by its bending:
-    :func:`knitfem.bspline.model.torsion_weights`)."""
+    knitting, its bending and torsion in their smooth forms:
+    :func:`knitfem.bspline.model.set_yarn_terms`)."""
     constants = YarnConstants() if constants is None else constants
     if knit_natural not in ("straight", "knitted"):
         raise ValueError(f"knit_natural must be 'straight' or 'knitted', got {knit_natural!r}")
@@ -185,7 +185,7 @@ def bspline_swatch(n_wale, n_course, *, w=4.0, c=3.0, radius=0.4, segments_per_l
         yarns.append(Yarn(q, segment_lengths(q), factor * EA, factor * EI,
                           radius=swatch.radius, line_density=rho,
                           curved=helix or knit_natural == "knitted", shaped=True,
-                          bent_torsion=not helix,
+                          set_yarn=knit_natural == "knitted" and not helix,
                           name="knit" if k == 0 else ("bindoff_bottom" if k == 1 else
                                                       "bindoff_top")))
     law = ContactLaw(constants.k_contact, swatch.radius, damping=constants.contact_damping,
