@@ -194,3 +194,22 @@ def test_naturally_helical_yarn_returns_to_its_helix():
     q1 = model.control_points(result.y)
     distances = [np.linalg.norm(p[:, None] - p[None], axis=2) for p in (q0, q1)]
     assert np.abs(distances[1] - distances[0]).max() < 1e-6 * length
+
+
+def test_set_yarn_bending_is_the_regularised_curvature_difference(rng):
+    """One Gauss point: the smooth bending energy is EI/2 (kappa_ep -
+    kappa0_ep)^2 |a| w for any kappa0, kappa0 = 0 included (0 where kappa =
+    kappa0), and ep = 0 gives the exact EI/2 (kappa - kappa0)^2 |a| w."""
+    from knitfem.bspline import gausspoint
+    H = np.zeros((9, 9))
+    for _ in range(5):
+        a, b, d = rng.normal(size=(3, 3))
+        kappa = np.linalg.norm(np.cross(a, b)) / np.linalg.norm(a) ** 3
+        na = np.linalg.norm(a)
+        for k0 in (0.0, 0.3 * kappa, kappa, 2.0 * kappa):
+            for ep in (0.0, 0.5 * kappa):
+                want = 0.5 * 2.0 * (np.hypot(kappa, ep) - np.hypot(k0, ep)) ** 2 * na * 0.7
+                for e in (gausspoint.energy(a, b, d, 1.0, 0.0, 2.0, k0, 0.0, 0.0, ep, 0.7,
+                                            False, False, H)[0],
+                          gausspoint.gradient(a, b, d, 1.0, 0.0, 2.0, k0, 0.0, 0.0, ep, 0.7)[0]):
+                    assert e == pytest.approx(want, rel=1e-9, abs=1e-12 * kappa ** 2 * na)

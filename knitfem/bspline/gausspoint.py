@@ -106,7 +106,7 @@ def energy(a, b, d, l, EA, EI, k0, t0, tw, ep, w, hessian, project, H):
         elif hessian:
             Fe_aa = F_aa
         P = np.sqrt(Fe)
-        if k0 != 0.0 and P > 1e-14 * a2:
+        if (k0 != 0.0 or ep != 0.0) and P > 1e-14 * a2:
             # -2 kappa0 kappa |a| = -2 kappa0 P Q, P = |a x b|, Q = |a|^-2 (skipped at the
             # cone tip P = 0, where the yarn is straight: a maximum of -P; with ep > 0
             # kappa0 -> kappa0_ep, P = sqrt(Fe) and there is no tip)
@@ -218,7 +218,7 @@ def gradient(a, b, d, l, EA, EI, k0, t0, tw, ep, w):
         k2 = k0 * k0 + 2.0 * ep2
         e += kb * k2 * na
         e_a = _axpy(kb * k2 / na, a, e_a)
-    if k0 != 0.0:
+    if k0 != 0.0 or ep != 0.0:
         P = np.sqrt(F + ep2 * a2 * a2 * a2)
         if P > 1e-14 * a2:
             m = -2.0 * kb * np.sqrt(k0 * k0 + ep2)
