@@ -29,6 +29,7 @@ def finished_runs(folders):
     for folder in folders:
         folder = Path(folder)
         for path in [folder] if folder.is_file() else sorted(folder.glob("curl_*.json")):
+            # (a B-spline run's summary is bspline_<nw>x<nc>.json: give it as a file)
             summary = json.loads(path.read_text())
             vtu = path.with_suffix(".vtu")
             if summary.get("curl") is not None and vtu.exists():
@@ -74,18 +75,24 @@ def path_name(summary):
 
 
 def panel(runs, out):
-    fig, axes = plt.subplots(2, len(runs), figsize=(4.2 * len(runs), 7.5), squeeze=False)
+    fig, axes = plt.subplots(2, len(runs), figsize=(4.6 * len(runs), 7.8), squeeze=False)
     for k, (summary, vtu) in enumerate(runs):
         paths = render(summary, vtu, out)
         r = summary["roll_deg"]
         scene = summary["scene"]
         mirrored = " (mirrored)" if scene.get("mirror") else ""
         # a yarn that keeps part of its knitted curvature (--straighten < 1) says so
-        kept = scene.get("straighten", 1.0)
+        if summary.get("model") == "bspline":
+            kept = 0.0 if scene.get("knit_natural") == "knitted" else 1.0
+            model = "B-spline (frictionless)"
+        else:
+            kept = scene.get("straighten", 1.0)
+            model = f"μ = {scene['friction']:g}"
         yarn = "" if kept == 1.0 else f", straighten {kept:g}"
+        how = (f"path {path_name(summary)}" if summary.get("model") != "bspline"
+               else f"{summary.get('method', 'fire')}")
         axes[0, k].set_title(f"N_w × N_c = {summary['nw']} × {summary['nc']}{mirrored}, α = "
-                             f"{summary['alpha']:g}, μ = {scene['friction']:g}{yarn}, "
-                             f"path {path_name(summary)}\n"
+                             f"{summary['alpha']:g}\n{model}{yarn}, {how}\n"
                              f"{summary['curl']} curl"
                              + ("" if summary["converged"] else " (NOT converged)")
                              + f"\nrolls L/R/T/B {r['left']:.0f}/{r['right']:.0f}/"
@@ -93,8 +100,9 @@ def panel(runs, out):
         for row, view in enumerate(VIEWS):
             axes[row, k].imshow(plt.imread(paths[view]))
             axes[row, k].axis("off")
-    fig.suptitle("Relaxed plain-knit swatches (beam model)\nedge rolls in degrees, positive "
-                 "toward the front (knit face, +z)", fontsize=12)
+    models = sorted({"B-spline" if s.get("model") == "bspline" else "beam" for s, _ in runs})
+    fig.suptitle(f"Relaxed plain-knit swatches ({' and '.join(models)} model)\nedge rolls in "
+                 "degrees, positive toward the front (knit face, +z)", fontsize=12)
     fig.tight_layout()
     from knitfem.io.atomic import atomic_path
     with atomic_path(out / "curl_panel.png") as tmp:

@@ -1,4 +1,6 @@
 """The B-spline swatch: scene, relaxation machinery, curl function."""
+import json
+
 import numpy as np
 import pytest
 
@@ -168,3 +170,22 @@ def test_a_checkpoints_scene_rebuilds_the_set_yarn():
         assert bool(bs.model.curved[knit].all()) is curved
         assert bool(np.abs(bs.model.kappa0[knit]).max() > 0.1) is curved
         assert np.allclose(bs.model.rest[knit], 0.8 * bs.model.rest0[knit])
+
+
+def test_a_set_yarn_run_says_so_in_its_summary_and_refuses_an_older_checkpoint(tmp_path):
+    """The summary keeps the scene it relaxed (knit_natural and the smooth
+    forms' tag: a set-yarn answer cannot pass for the paper's yarn), and a
+    checkpoint of the set yarn in its exact forms (no tag) is refused by name."""
+    s = bspline_curl(3, 4, knit_natural="knitted", max_steps=40, out=tmp_path, progress=False)
+    assert s["scene"]["knit_natural"] == "knitted" and s["scene"]["knit_forms"] == "smooth"
+    assert "knit_natural" not in bspline_curl(3, 4, max_steps=40, progress=False)["scene"]
+    path = tmp_path / "bspline_3x4_checkpoint.npz"
+    with np.load(path) as saved:
+        arrays = dict(saved)
+    scene = json.loads(str(arrays["scene"]))
+    del scene["knit_forms"]
+    arrays["scene"] = np.array(json.dumps(scene, sort_keys=True))
+    np.savez(path, **arrays)
+    with pytest.raises(ValueError, match="knit_forms: checkpoint None, given 'smooth'"):
+        bspline_curl(3, 4, knit_natural="knitted", max_steps=80, out=tmp_path, resume=True,
+                     progress=False)

@@ -252,6 +252,7 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
     summary["processes"] = run.processes + 1
     summary["resumed_from_step"] = None if run.state is None else run.state.step
     summary["source"] = source()
+    summary["scene"] = scene            # what was relaxed (the set yarn says so: knit_natural)
     summary["elapsed_s"] = time.perf_counter() - t0
     if trace:
         summary["trace"] = {"rows": monitor.rows, "shapes": monitor.shapes}
