@@ -4,7 +4,7 @@
 
 The B-spline set yarn (``knitfem curl --model bspline --straighten 0``) has
 its torsion in full only where its rest curvature is at least its mean
-(:func:`knitfem.bspline.model.set_yarn_terms`: 44 % of the 10 x 35's knit
+(:func:`knitfem.bspline.energy.set_yarn_terms`: 44 % of the 10 x 35's knit
 Gauss points), weaker by (kappa0 / mean)^4 below.  This relaxes the same
 swatch with the torsion in full down to F x the mean (F 0.25: 94 % of the
 points; below 0.25 the Gershgorin masses spread again), through a patched
@@ -16,7 +16,7 @@ import json
 
 import numpy as np
 
-import knitfem.bspline.model as bspline_model
+import knitfem.bspline.energy as bspline_energy
 
 
 def main():
@@ -27,14 +27,14 @@ def main():
     args = parser.parse_args()
     if not 0.0 < args.full_above <= 1.0:
         parser.error(f"--full-above must be in (0, 1], got {args.full_above}")
-    terms = bspline_model.set_yarn_terms
+    terms = bspline_energy.set_yarn_terms
 
     def full_above(kappa0, ds):
         weight, ep = terms(kappa0, ds)
-        mean = ep.flat[0] / bspline_model.SET_YARN_EPS
+        mean = ep.flat[0] / bspline_energy.SET_YARN_EPS
         return 1.0 / np.maximum(kappa0, args.full_above * mean) ** 4, ep
 
-    bspline_model.set_yarn_terms = full_above
+    bspline_energy.set_yarn_terms = full_above
     from knitfem.scenes.curl_bspline import bspline_curl
     s = bspline_curl(10, 35, alpha=0.2, knit_natural="knitted", max_time=args.max_time,
                      out=args.out, progress=True)

@@ -4,7 +4,7 @@ import pytest
 
 from knitfem.bspline import BSplineModel, ContactLaw, Yarn, relax_newton
 from knitfem.bspline.energy import curvature
-from knitfem.bspline.model import set_yarn_terms
+from knitfem.bspline.energy import set_yarn_terms
 
 
 def helix_pair(curved=False, form="kaldor"):

@@ -24,7 +24,7 @@ The exact bending term has a cone at kappa = 0 when kappa0 > 0 (its force
 does not vanish there: relaxation chatters across it), and tau = T / |a x
 b|^2 is singular where the yarn straightens; both forms above are smooth
 everywhere.  t0 is then the rest kappa0^2 tau0 and t carries the scale
-(:func:`knitfem.bspline.model.set_yarn_terms`).
+(:func:`knitfem.bspline.energy.set_yarn_terms`).
 """
 import numpy as np
 from numba import njit

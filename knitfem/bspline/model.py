@@ -38,37 +38,6 @@ class _Clamp:
     tangent: np.ndarray
 
 
-SET_YARN_EPS = 0.1     # curvature regularisation of a set yarn, x its mean rest curvature
-
-
-def set_yarn_terms(kappa0, ds):
-    """The scales of a yarn set in its initial shape, its bending and torsion
-    in their smooth forms (:mod:`.gausspoint`, ep > 0): (torsion weight, ep),
-    each (S, G).  kappa_mean: the rest curvature averaged over the yarn's
-    length (ds (S, G): arclength per Gauss point); ep = 0.1 kappa_mean;
-    weight 1 / max(kappa0, kappa_mean)^4, so that near rest the torsion
-    term is min(1, (kappa0 / kappa_mean)^4) EI/2 (tau - tau0)^2 (+ its
-    coupling to the curvature).
-
-    Why: a yarn without a material frame has torsion only as the turning
-    rate of its binormal, defined only as far as it is bent (turning the
-    bending plane of a rod bent to kappa0 costs ~ EI kappa0^2 per radian^2);
-    kappa^2 tau = (a x b) . d / |a|^6 (a, b, d: the curve's first three
-    derivatives) is smooth where tau is not.
-    The exact forms failed on the knitted yarn (2026-12-08): unweighted
-    torsion made its less bent stretches up to 1000 x stiffer (28 % of the
-    10 x 35's knit control points > 10 x the median Gershgorin mass, FIRE's
-    step), and the curvature's cone at kappa = 0 held the largest forces of
-    a 4 x 4 that FIRE could not bring below residual 0.99 in 300 s: Gauss
-    points with kappa 1e-5 against kappa0 0.05-0.1."""
-    kappa0 = np.asarray(kappa0, float)
-    mean = float(np.sum(kappa0 * ds) / np.sum(ds))
-    if not mean > 0:
-        raise ValueError("a set yarn needs a bent rest shape (its mean curvature is 0)")
-    weight = 1.0 / np.maximum(kappa0, mean) ** 4
-    return weight, np.full_like(kappa0, SET_YARN_EPS * mean)
-
-
 class BSplineModel:
     """Yarns + clamps/fixed points + gravity, dead loads and ties at curve
     points + contact, as an energy of the reduced coordinates y.
@@ -116,7 +85,7 @@ class BSplineModel:
         bounds = np.cumsum([0] + [y.segments for y in self.yarns])
         for y, i, j in zip(self.yarns, bounds[:-1], bounds[1:]):
             if y.set_yarn:
-                self.torsion_weight[i:j], self.curvature_eps[i:j] = set_yarn_terms(
+                self.torsion_weight[i:j], self.curvature_eps[i:j] = energy.set_yarn_terms(
                     self.kappa0[i:j], speed[i:j] * self.quad.w)
                 self.torsion_rest[i:j] = energy.curvature_torsion(
                     y.control, curve.segment_indices(y.segments, y.closed), self.quad)

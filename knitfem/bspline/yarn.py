@@ -33,7 +33,7 @@ class Yarn:
     self_contact: whether its own samples repel each other (the paper leaves
     it out for the bind-off); set_yarn: a curved yarn whose shape has
     inflections (the knitted loop), its bending and torsion in their smooth
-    forms (:func:`knitfem.bspline.model.set_yarn_terms`)."""
+    forms (:func:`knitfem.bspline.energy.set_yarn_terms`)."""
     control: np.ndarray
     rest: np.ndarray
     EA: float

@@ -237,7 +237,7 @@ def bspline_curl(nw, nc, *, alpha=0.2, w=4.0, c=3.0, radius=0.4, segments_per_lo
              "rtol": float(rtol), "constants": asdict(constants)}
     if knit_natural != "straight":          # the scenes stored before it existed: straight
         scene["knit_natural"] = knit_natural
-        # its bending and torsion in smooth forms since 2026-12-08 (model.set_yarn_terms):
+        # its bending and torsion in smooth forms since 2026-12-08 (energy.set_yarn_terms):
         # a checkpoint of the exact forms is refused by name, not resumed
         scene["knit_forms"] = "smooth"
     monitor = Trace(bs) if trace else None

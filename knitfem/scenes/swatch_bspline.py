@@ -167,7 +167,7 @@ def bspline_swatch(n_wale, n_course, *, w=4.0, c=3.0, radius=0.4, segments_per_l
     paper's yarn) or "knitted" (the knit yarn's natural curvature and torsion
     are those of the knitted shape, so alpha = 0 is at rest; a yarn set by the
     knitting, its bending and torsion in their smooth forms:
-    :func:`knitfem.bspline.model.set_yarn_terms`)."""
+    :func:`knitfem.bspline.energy.set_yarn_terms`)."""
     constants = YarnConstants() if constants is None else constants
     if knit_natural not in ("straight", "knitted"):
         raise ValueError(f"knit_natural must be 'straight' or 'knitted', got {knit_natural!r}")
