@@ -7,7 +7,8 @@
 #   phase_a03      the alpha 0.2 beam phase grid (31 of 56 points stored; the next, 40 x 10,
 #                  starts afresh: its work checkpoint was lost with the machine on 2026-12-08).
 #   t55x35_thirds  the paper's 55 x 35 along increments of 1/3 (issue 9), parked at lam 0.34.
-#   s0_55x35       the 55 x 35 with the set yarn (--straighten 0, issue 9), in its first increment.
+#   s0_55x35       the 55 x 35 with the set yarn (--straighten 0, issue 9), at its lam 0.34 equilibrium
+#                  (top/bottom; the final solve to 1e-8 still to run).
 #   bs0_25x35      the B-spline 25 x 35 with the set yarn (issue 12), on its way (FIRE).
 set -e
 if [ $# -eq 0 ]; then
