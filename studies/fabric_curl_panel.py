@@ -84,13 +84,11 @@ def panel(runs, out):
         # a yarn that keeps part of its knitted curvature (--straighten < 1) says so
         if summary.get("model") == "bspline":
             kept = 0.0 if scene.get("knit_natural") == "knitted" else 1.0
-            model = "B-spline (frictionless)"
+            model, how = "B-spline (frictionless)", summary.get("method", "fire")
         else:
             kept = scene.get("straighten", 1.0)
-            model = f"μ = {scene['friction']:g}"
+            model, how = f"μ = {scene['friction']:g}", f"path {path_name(summary)}"
         yarn = "" if kept == 1.0 else f", straighten {kept:g}"
-        how = (f"path {path_name(summary)}" if summary.get("model") != "bspline"
-               else f"{summary.get('method', 'fire')}")
         axes[0, k].set_title(f"N_w × N_c = {summary['nw']} × {summary['nc']}{mirrored}, α = "
                              f"{summary['alpha']:g}\n{model}{yarn}, {how}\n"
                              f"{summary['curl']} curl"

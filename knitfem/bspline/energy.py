@@ -61,25 +61,29 @@ def curvature(q, seg, quad):
     return np.linalg.norm(np.cross(a, b), axis=2) / np.linalg.norm(a, axis=2) ** 3
 
 
-def torsion(q, seg, quad):
-    """Torsion (a x b) . r''' / |a x b|^2 at every Gauss point (S, G), 0 where
-    the curve is straight."""
+def _torsion_parts(q, seg, quad):
+    """|a|^2, |a x b|^2 and T = (a x b) . d at every Gauss point (S, G)."""
     a, b = derivatives(q, seg, quad)
     d = np.broadcast_to(np.einsum("j,sjk->sk", B3, q[seg])[:, None, :], a.shape)
     c = np.cross(a, b)
-    F = np.einsum("sgk,sgk->sg", c, c)
-    straight = F <= 1e-14 * np.einsum("sgk,sgk->sg", a, a) ** 2
-    return np.where(straight, 0.0, np.einsum("sgk,sgk->sg", c, d) / np.where(straight, 1.0, F))
+    return (np.einsum("sgk,sgk->sg", a, a), np.einsum("sgk,sgk->sg", c, c),
+            np.einsum("sgk,sgk->sg", c, d))
+
+
+def torsion(q, seg, quad):
+    """Torsion (a x b) . d / |a x b|^2 (d the third derivative) at every Gauss
+    point (S, G), 0 where the curve is straight."""
+    a2, F, T = _torsion_parts(q, seg, quad)
+    straight = F <= 1e-14 * a2 ** 2
+    return np.where(straight, 0.0, T / np.where(straight, 1.0, F))
 
 
 def curvature_torsion(q, seg, quad):
-    """kappa^2 tau = (a x b) . d / |a|^6 (d the third derivative) at every
-    Gauss point (S, G): the torsion measure of a set yarn
-    (:mod:`.gausspoint`), smooth where the curve straightens."""
-    a, b = derivatives(q, seg, quad)
-    d = np.broadcast_to(np.einsum("j,sjk->sk", B3, q[seg])[:, None, :], a.shape)
-    return (np.einsum("sgk,sgk->sg", np.cross(a, b), d)
-            / np.einsum("sgk,sgk->sg", a, a) ** 3)
+    """kappa^2 tau = (a x b) . d / |a|^6 at every Gauss point (S, G): the
+    torsion measure of a set yarn (:mod:`.gausspoint`), smooth where the
+    curve straightens."""
+    a2, _, T = _torsion_parts(q, seg, quad)
+    return T / a2 ** 3
 
 
 SET_YARN_EPS = 0.1     # curvature regularisation of a set yarn, x its mean rest curvature

@@ -133,13 +133,14 @@ def energy(a, b, d, l, EA, EI, k0, t0, tw, ep, w, hessian, project, H):
             T = c @ d
             Tx = np.concatenate((cross(b, d), cross(d, a), c))
             if ep != 0.0:
-                F = a2 * a2 * a2
-                Fx = np.concatenate((6.0 * a2 * a2 * a, np.zeros(6)))
+                D = a2 * a2 * a2
+                Dx = np.concatenate((6.0 * a2 * a2 * a, np.zeros(6)))
             else:
-                Fx = np.concatenate((F_a, F_b, np.zeros(3)))
+                D = F
+                Dx = np.concatenate((F_a, F_b, np.zeros(3)))
             nx = np.concatenate((ah, np.zeros(6)))
-            f = T / F - t0
-            tx = Tx / F - T * Fx / (F * F)
+            f = T / D - t0
+            tx = Tx / D - T * Dx / (D * D)
             grad = kt * (2.0 * f * tx * na + f * f * nx)
             e += kt * f * f * na
             e_a += grad[:3]
@@ -151,16 +152,16 @@ def energy(a, b, d, l, EA, EI, k0, t0, tw, ep, w, hessian, project, H):
                 Txy[:3, 6:] = skew(b)
                 Txy[3:6, 6:] = -skew(a)
                 Txy += Txy.T
-                Fxy = np.zeros((9, 9))
+                Dxy = np.zeros((9, 9))
                 if ep != 0.0:
-                    Fxy[:3, :3] = 6.0 * a2 * a2 * eye + 24.0 * a2 * np.outer(a, a)
+                    Dxy[:3, :3] = 6.0 * a2 * a2 * eye + 24.0 * a2 * np.outer(a, a)
                 else:
-                    Fxy[:3, :3] = F_aa
-                    Fxy[:3, 3:6] = F_ab
-                    Fxy[3:6, :3] = F_ab.T
-                    Fxy[3:6, 3:6] = F_bb
-                txy = (Txy / F - _sym(Tx, Fx) / (F * F) - T * Fxy / (F * F)
-                       + 2.0 * T * np.outer(Fx, Fx) / F ** 3)
+                    Dxy[:3, :3] = F_aa
+                    Dxy[:3, 3:6] = F_ab
+                    Dxy[3:6, :3] = F_ab.T
+                    Dxy[3:6, 3:6] = F_bb
+                txy = (Txy / D - _sym(Tx, Dx) / (D * D) - T * Dxy / (D * D)
+                       + 2.0 * T * np.outer(Dx, Dx) / D ** 3)
                 nxy = np.zeros((9, 9))
                 nxy[:3, :3] = (eye - np.outer(ah, ah)) / na
                 H[:, :] += kt * (2.0 * np.outer(tx, tx) * na + 2.0 * f * txy * na
@@ -228,27 +229,20 @@ def gradient(a, b, d, l, EA, EI, k0, t0, tw, ep, w):
             e_a = _axpy(m * Q / P, F_a, _axpy(-2.0 * m * P / (a2 * a2)
                                               + 3.0 * m * Q / P * ep2 * a2 * a2, a, e_a))
             e_b = _axpy(m * Q / P, F_b, e_b)
-    if tw != 0.0 and ep != 0.0:
+    if tw != 0.0 and (ep != 0.0 or F > 1e-14 * a2 * a2):
+        # tw (T / D - t0)^2 |a|: D = F (tau) or with ep > 0 |a|^6 (kappa^2 tau)
+        if ep != 0.0:
+            D, D_a, D_b = a2 * a2 * a2, _axpy(3.0 * a2 * a2, a, zero), zero  # halves of D_x
+        else:
+            D, D_a, D_b = F, F_a, F_b
         kb *= tw
         T = _dot(c, d)
-        D = a2 * a2 * a2
         f = T / D - t0
-        # (T / D)_x = T_x / D - T D_x / D^2, D_a = 6 a2^2 a
+        # (T/D)_x = T_x / D - T D_x / D^2, T_a = b x d, T_b = d x a, T_d = c, D_x = 2 (D_a, D_b, 0)
         k = 2.0 * kb * f * na
         e += kb * f * f * na
-        e_a = _axpy(k / D, _x(b, d), _axpy(-6.0 * k * T * a2 * a2 / (D * D)
-                                           + kb * f * f / na, a, e_a))
-        e_b = _axpy(k / D, _x(d, a), e_b)
-        e_d = _axpy(k / D, c, e_d)
-    elif tw != 0.0 and F > 1e-14 * a2 * a2:
-        kb *= tw
-        T = _dot(c, d)
-        f = T / F - t0
-        # tau_x = T_x / F - T F_x / F^2, T_a = b x d, T_b = d x a, T_d = c, F_x = 2 (F_a, F_b, 0)
-        k = 2.0 * kb * f * na
-        e += kb * f * f * na
-        e_a = _axpy(k / F, _x(b, d), _axpy(-2.0 * k * T / (F * F), F_a,
+        e_a = _axpy(k / D, _x(b, d), _axpy(-2.0 * k * T / (D * D), D_a,
                                            _axpy(kb * f * f / na, a, e_a)))
-        e_b = _axpy(k / F, _x(d, a), _axpy(-2.0 * k * T / (F * F), F_b, e_b))
-        e_d = _axpy(k / F, c, e_d)
+        e_b = _axpy(k / D, _x(d, a), _axpy(-2.0 * k * T / (D * D), D_b, e_b))
+        e_d = _axpy(k / D, c, e_d)
     return e, e_a, e_b, e_d
